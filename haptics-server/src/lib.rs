@@ -1,0 +1,1 @@
+//! `haptics-server`: device backends, the servo loop and the transports.

@@ -1,0 +1,3 @@
+fn main() {
+    println!("haptics-server: not yet implemented");
+}

@@ -1,0 +1,7 @@
+//! `workstation`: the commands and threads around `sim-core`.
+//!
+//! Every subcommand of the `workstation` binary is a module here, so it can be tested
+//! without spawning a process. Library code returns errors; only the binary prints them.
+
+pub mod logging;
+pub mod status;

@@ -1,0 +1,46 @@
+//! The `workstation` binary: thin command-line glue over the `workstation` library.
+//!
+//! Each subcommand lives in its own module of the library; `main` only parses arguments,
+//! sets up logging (`RUST_LOG`) and maps errors to an exit code.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Networked haptic sculpting: the workstation side.
+///
+/// Fits point sets into implicit surfaces, simulates sculpting, maps forces for the haptics
+/// server and reports measurements. Logs go to stderr; set RUST_LOG=debug for more.
+#[derive(Debug, Parser)]
+#[command(name = "workstation", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Print what this build can do and how to start.
+    Status,
+}
+
+fn main() -> ExitCode {
+    workstation::logging::init();
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Status => {
+            workstation::status::print();
+            Ok(())
+        }
+    }
+}
