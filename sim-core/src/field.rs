@@ -1,0 +1,399 @@
+//! The global implicit field (papers' Eq. 5): local B-spline fields blended by compactly
+//! supported weights, `f(x) = Σ sᵢ(x) φᵢ(x) / Σ φᵢ(x)`, with the nearest point's signed distance
+//! where no support covers `x`. Sign: `f < 0` inside, `f > 0` outside, `∇f` outward.
+//!
+//! Contract: a [`GlobalField`] is immutable and cheap to clone (one `Arc`), so a simulation can
+//! hand snapshots to other threads. [`GlobalField::value_and_gradient`] costs O(supports at x),
+//! allocates nothing and returns finite numbers for every finite `x`.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::bspline::{MAX_SIZE, RefitOperator, eval3};
+use crate::knn::{KnnGraph, PointIndex};
+use crate::local_fit::{FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local};
+use crate::spatial::SupportGrid;
+
+/// Progress sink for long constructions; `advance` is called from worker threads.
+pub trait Progress: Sync {
+    /// `n` more items are done.
+    fn advance(&self, n: usize);
+}
+
+/// A progress sink that ignores reports.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoProgress;
+
+impl Progress for NoProgress {
+    fn advance(&self, _n: usize) {}
+}
+
+/// Why a field could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FieldError {
+    /// There are no points.
+    #[error("cannot fit an empty point set")]
+    Empty,
+    /// Points, normals and the k-NN graph disagree in length.
+    #[error("{points} points but {normals} normals and a k-NN graph over {graph}")]
+    Mismatch {
+        /// Number of points.
+        points: usize,
+        /// Number of normals.
+        normals: usize,
+        /// Points in the graph.
+        graph: usize,
+    },
+    /// A parameter is out of range.
+    #[error("invalid fit parameter: {0}")]
+    Param(&'static str),
+    /// Every point was classified as an outlier.
+    #[error("every point was rejected as an outlier")]
+    AllOutliers,
+}
+
+/// The blended implicit surface of a point set.
+#[derive(Debug, Clone)]
+pub struct GlobalField {
+    inner: Arc<FieldData>,
+}
+
+#[derive(Debug)]
+struct FieldData {
+    params: FitParams,
+    frames: Vec<LocalFrame>,
+    /// Support radius per point; 0 for outliers.
+    support: Vec<f64>,
+    /// `size³` world-unit coefficients per point.
+    coeffs: Vec<f64>,
+    normals: Vec<DVec3>,
+    /// Nearest-point fallback over inliers, and the map from its items to point indices.
+    nearest: PointIndex,
+    nearest_ids: Vec<u32>,
+    grid: SupportGrid,
+    refit: Arc<RefitOperator>,
+    scale: f64,
+    outliers: usize,
+}
+
+impl GlobalField {
+    /// Fit every point's local field (on all cores) and index the supports.
+    ///
+    /// `normals` are unit and consistently oriented outward; `knn` lists each point's neighbours
+    /// (its `k` is the neighbourhood size; `params.k` is not consulted here).
+    pub fn build(
+        points: &[DVec3],
+        normals: &[DVec3],
+        knn: &KnnGraph,
+        params: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, FieldError> {
+        validate(points, normals, knn, params)?;
+        let n = points.len();
+        let radii: Vec<f64> = (0..n).map(|i| knn.radius(i)).collect();
+        let outlier = flag_outliers(knn, &radii, params.outlier_ratio);
+        let mut sorted: Vec<f64> = radii.iter().copied().filter(|r| *r > 0.0).collect();
+        sorted.sort_by(f64::total_cmp);
+        let typical = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+        let c = params.size.pow(3);
+        let mut coeffs = vec![0.0; n * c];
+        let mut frames = vec![
+            LocalFrame {
+                center: DVec3::ZERO,
+                axes: [DVec3::X, DVec3::Y, DVec3::Z],
+                half: 1.0
+            };
+            n
+        ];
+        const BLOCK: usize = 512;
+        coeffs
+            .par_chunks_mut(c * BLOCK)
+            .zip(frames.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each_init(
+                || (FitScratch::new(params.size), Vec::new(), Vec::new()),
+                |(scratch, hp, hn), (block, (cs, fs))| {
+                    for (o, (coef, frame)) in cs.chunks_mut(c).zip(fs.iter_mut()).enumerate() {
+                        let i = block * BLOCK + o;
+                        hp.clear();
+                        hn.clear();
+                        for &j in knn.neighbours(i) {
+                            if !outlier[j as usize] || j as usize == i {
+                                hp.push(points[j as usize]);
+                                hn.push(normals[j as usize]);
+                            }
+                        }
+                        let hood = Neighbourhood {
+                            center: points[i],
+                            normal: normals[i],
+                            points: hp,
+                            normals: hn,
+                            fallback_radius: typical,
+                        };
+                        *frame = fit_local(&hood, params, scratch, coef);
+                    }
+                    progress.advance(fs.len());
+                },
+            );
+        let support: Vec<f64> = frames
+            .iter()
+            .zip(&outlier)
+            .map(|(f, &out)| if out { 0.0 } else { params.support * f.half })
+            .collect();
+        let inliers: Vec<u32> = (0..n as u32).filter(|&i| !outlier[i as usize]).collect();
+        if inliers.is_empty() {
+            return Err(FieldError::AllOutliers);
+        }
+        let inlier_points: Vec<DVec3> = inliers.iter().map(|&i| points[i as usize]).collect();
+        let mut sup_sorted: Vec<f64> = support.iter().copied().filter(|r| *r > 0.0).collect();
+        sup_sorted.sort_by(f64::total_cmp);
+        let scale = sup_sorted[sup_sorted.len() / 2];
+        let grid = SupportGrid::new(points, &support, 2.0 * scale);
+        let refit = RefitOperator::new(params.size, params.size)
+            .map_err(|_| FieldError::Param("size must be in 3..=6"))?;
+        Ok(Self {
+            inner: Arc::new(FieldData {
+                params: *params,
+                frames,
+                support,
+                coeffs,
+                normals: normals.to_vec(),
+                nearest: PointIndex::new(&inlier_points),
+                nearest_ids: inliers,
+                grid,
+                refit: Arc::new(refit),
+                scale,
+                outliers: outlier.iter().filter(|o| **o).count(),
+            }),
+        })
+    }
+
+    /// `f(x)`.
+    #[inline]
+    pub fn value(&self, x: DVec3) -> f64 {
+        self.value_and_gradient(x).0
+    }
+
+    /// `f(x)` and `∇f(x)`. Allocation-free; finite for finite `x`.
+    pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
+        let d = &*self.inner;
+        let size = d.params.size;
+        let c = size * size * size;
+        let (mut sw, mut swf) = (0.0, 0.0);
+        let (mut gsw, mut gswf) = (DVec3::ZERO, DVec3::ZERO);
+        d.grid.for_each_candidate(x, |i| {
+            let r = d.support[i];
+            let fr = &d.frames[i];
+            let rel = x - fr.center;
+            let dist2 = rel.length_squared();
+            if dist2 >= r * r {
+                return;
+            }
+            let dist = dist2.sqrt();
+            let (phi, dphi) = weight(dist / r);
+            let gphi = if dist > 0.0 {
+                rel * (dphi / (r * dist))
+            } else {
+                DVec3::ZERO
+            };
+            let [u, v, w] = fr.to_local(x);
+            let (s, gq) = eval3(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
+            let inv_edge = 0.5 / fr.half;
+            let gs = (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + fr.axes[2] * gq[2]) * inv_edge;
+            sw += phi;
+            swf += phi * s;
+            gsw += gphi;
+            gswf += gphi * s + gs * phi;
+        });
+        if sw > 1e-12 {
+            let f = swf / sw;
+            let g = (gswf - gsw * f) / sw;
+            if f.is_finite() && g.is_finite() {
+                return (f, g);
+            }
+        }
+        self.nearest_signed_distance(x)
+    }
+
+    /// Signed distance to the nearest inlier point, signed by its normal (the fallback where
+    /// no support covers `x`).
+    pub fn nearest_signed_distance(&self, x: DVec3) -> (f64, DVec3) {
+        let d = &*self.inner;
+        let (item, _) = d.nearest.nearest(x);
+        let i = d.nearest_ids[item] as usize;
+        let rel = x - d.frames[i].center;
+        let n = d.normals[i];
+        let sign = if rel.dot(n) < 0.0 { -1.0 } else { 1.0 };
+        let len = rel.length();
+        if len > 0.0 && len.is_finite() {
+            (sign * len, rel * (sign / len))
+        } else {
+            (0.0, n)
+        }
+    }
+
+    /// `true` when some local support contains `x` (the blend, not the fallback, defines f).
+    pub fn is_covered(&self, x: DVec3) -> bool {
+        let d = &*self.inner;
+        let mut hit = false;
+        d.grid.for_each_candidate(x, |i| {
+            hit |= (x - d.frames[i].center).length_squared() < d.support[i] * d.support[i];
+        });
+        hit
+    }
+
+    /// Number of points (local fields, outliers included).
+    pub fn len(&self) -> usize {
+        self.inner.frames.len()
+    }
+
+    /// Always `false`: a field has at least one point.
+    pub fn is_empty(&self) -> bool {
+        self.inner.frames.is_empty()
+    }
+
+    /// Points rejected as outliers (no local field, no support).
+    pub fn outlier_count(&self) -> usize {
+        self.inner.outliers
+    }
+
+    /// Median support radius: the field's length scale (tolerances are relative to it).
+    pub fn scale(&self) -> f64 {
+        self.inner.scale
+    }
+
+    /// The parameters the field was fitted with.
+    pub fn params(&self) -> &FitParams {
+        &self.inner.params
+    }
+
+    /// Frame of local field `i`.
+    pub fn frame(&self, i: usize) -> &LocalFrame {
+        &self.inner.frames[i]
+    }
+
+    /// World-unit coefficients of local field `i` (`size³`, flat index `(a·size+b)·size+c`).
+    pub fn coefficients(&self, i: usize) -> &[f64] {
+        let c = self.inner.params.size.pow(3);
+        &self.inner.coeffs[i * c..(i + 1) * c]
+    }
+
+    /// Support radius of point `i`'s blending weight (0 for an outlier).
+    pub fn support_radius(&self, i: usize) -> f64 {
+        self.inner.support[i]
+    }
+
+    /// The precomputed refit operator (Eq. 4) for this field's spline size, on a grid of
+    /// `size` samples per axis spanning each local domain.
+    pub fn refit_operator(&self) -> &Arc<RefitOperator> {
+        &self.inner.refit
+    }
+
+    /// Replace local field `i`'s coefficients by the refit of `samples` (values at the refit
+    /// grid nodes of its domain, see [`RefitOperator::node`] and [`LocalFrame::to_world`]).
+    /// Copy-on-write: other snapshots are unaffected.
+    pub fn refit_local(&mut self, i: usize, samples: &[f64]) {
+        let data = Arc::make_mut(&mut self.inner);
+        let c = data.params.size.pow(3);
+        let refit = Arc::clone(&data.refit);
+        refit.apply(samples, &mut data.coeffs[i * c..(i + 1) * c]);
+    }
+}
+
+impl Clone for FieldData {
+    fn clone(&self) -> Self {
+        let inlier_points: Vec<DVec3> = self
+            .nearest_ids
+            .iter()
+            .map(|&i| self.frames[i as usize].center)
+            .collect();
+        Self {
+            params: self.params,
+            frames: self.frames.clone(),
+            support: self.support.clone(),
+            coeffs: self.coeffs.clone(),
+            normals: self.normals.clone(),
+            nearest: PointIndex::new(&inlier_points),
+            nearest_ids: self.nearest_ids.clone(),
+            grid: self.grid.clone(),
+            refit: Arc::clone(&self.refit),
+            scale: self.scale,
+            outliers: self.outliers,
+        }
+    }
+}
+
+/// Blending weight: the centred quadratic B-spline of `1.5·t`, scaled to 1 at `t = 0`, with
+/// support `t < 1`; returns `(φ, dφ/dt)`. C¹ and positive inside the support.
+#[inline]
+fn weight(t: f64) -> (f64, f64) {
+    let s = 1.5 * t;
+    if s < 0.5 {
+        ((0.75 - s * s) / 0.75, -2.0 * s * 1.5 / 0.75)
+    } else if s < 1.5 {
+        let m = 1.5 - s;
+        (0.5 * m * m / 0.75, -m * 1.5 / 0.75)
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+fn validate(
+    points: &[DVec3],
+    normals: &[DVec3],
+    knn: &KnnGraph,
+    p: &FitParams,
+) -> Result<(), FieldError> {
+    if points.is_empty() {
+        return Err(FieldError::Empty);
+    }
+    if normals.len() != points.len() || knn.len() != points.len() {
+        return Err(FieldError::Mismatch {
+            points: points.len(),
+            normals: normals.len(),
+            graph: knn.len(),
+        });
+    }
+    let checks = [
+        (3..=MAX_SIZE).contains(&p.size),
+        p.offset > 0.0 && p.offset < 1.0,
+        p.weight_width > 0.0 && p.weight_width.is_finite(),
+        p.regularization > 0.0 && p.regularization.is_finite(),
+        p.support > 0.0 && p.support <= 1.0,
+        p.normal_agreement.is_finite(),
+        p.outlier_ratio > 1.0,
+    ];
+    const WHAT: [&str; 7] = [
+        "size must be in 3..=6",
+        "offset must be in (0, 1)",
+        "weight_width must be positive",
+        "regularization must be positive",
+        "support must be in (0, 1]",
+        "normal_agreement must be finite",
+        "outlier_ratio must exceed 1",
+    ];
+    match checks.iter().position(|ok| !ok) {
+        Some(bad) => Err(FieldError::Param(WHAT[bad])),
+        None => Ok(()),
+    }
+}
+
+/// A point is an outlier when its k-NN radius exceeds `ratio` × the median radius of its
+/// neighbours (an isolated point far from a dense surface).
+fn flag_outliers(knn: &KnnGraph, radii: &[f64], ratio: f64) -> Vec<bool> {
+    (0..radii.len())
+        .into_par_iter()
+        .map_init(Vec::new, |buf, i| {
+            buf.clear();
+            buf.extend(knn.neighbours(i)[1..].iter().map(|&j| radii[j as usize]));
+            if buf.is_empty() {
+                return false;
+            }
+            let mid = buf.len() / 2;
+            let (_, median, _) = buf.select_nth_unstable_by(mid, f64::total_cmp);
+            radii[i] > ratio * *median && *median > 0.0
+        })
+        .collect()
+}

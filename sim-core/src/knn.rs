@@ -1,0 +1,141 @@
+//! Nearest-neighbour queries over a fixed point set: a k-d tree (`kiddo`'s immutable tree, which
+//! tolerates duplicate and coplanar points) and the k-NN graph used by normals and fits.
+//!
+//! Contract: built once, immutable, `Send + Sync`; [`PointIndex::nearest`] does not allocate.
+
+use glam::DVec3;
+use kiddo::SquaredEuclidean;
+use kiddo::immutable::float::kdtree::ImmutableKdTree;
+use rayon::prelude::*;
+
+/// A k-d tree over positions, returning indices into the original slice.
+pub struct PointIndex {
+    tree: ImmutableKdTree<f64, u32, 3, 32>,
+    len: usize,
+}
+
+impl std::fmt::Debug for PointIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PointIndex")
+            .field("len", &self.len)
+            .finish_non_exhaustive()
+    }
+}
+
+impl PointIndex {
+    /// Build the tree. `points` must be non-empty and finite (see `PointSet::validate`).
+    pub fn new(points: &[DVec3]) -> Self {
+        assert!(!points.is_empty(), "PointIndex needs at least one point");
+        assert!(points.len() < u32::MAX as usize, "at most 2³²−1 points");
+        let coords: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
+        Self {
+            tree: ImmutableKdTree::new_from_slice(&coords),
+            len: points.len(),
+        }
+    }
+
+    /// Number of indexed points.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Always `false`: an index holds at least one point.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Index of and distance to the nearest point. Allocation-free.
+    pub fn nearest(&self, x: DVec3) -> (usize, f64) {
+        let nn = self.tree.nearest_one::<SquaredEuclidean>(&x.to_array());
+        (nn.item as usize, nn.distance.max(0.0).sqrt())
+    }
+
+    /// All points within `radius` of `x` as `(index, distance)`, in no particular order.
+    pub fn within(&self, x: DVec3, radius: f64) -> Vec<(usize, f64)> {
+        self.tree
+            .within_unsorted::<SquaredEuclidean>(&x.to_array(), radius * radius)
+            .into_iter()
+            .map(|nn| (nn.item as usize, nn.distance.max(0.0).sqrt()))
+            .collect()
+    }
+
+    /// The `k` nearest points to `x` as `(index, distance)`, nearest first.
+    pub fn nearest_k(&self, x: DVec3, k: usize) -> Vec<(usize, f64)> {
+        let Some(k) = std::num::NonZero::new(k.min(self.len)) else {
+            return Vec::new();
+        };
+        self.tree
+            .nearest_n::<SquaredEuclidean>(&x.to_array(), k)
+            .into_iter()
+            .map(|nn| (nn.item as usize, nn.distance.max(0.0).sqrt()))
+            .collect()
+    }
+}
+
+/// For every point, its `k` nearest points (itself first), stored row by row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KnnGraph {
+    k: usize,
+    neighbours: Vec<u32>,
+    distances: Vec<f64>,
+}
+
+impl KnnGraph {
+    /// Query `index` for the `k` nearest of every point (k is capped at the point count, ≥ 1).
+    /// Runs on all cores.
+    pub fn build(points: &[DVec3], index: &PointIndex, k: usize) -> Self {
+        let k = k.clamp(1, points.len());
+        let mut neighbours = vec![0u32; points.len() * k];
+        let mut distances = vec![0.0; points.len() * k];
+        neighbours
+            .par_chunks_mut(k)
+            .zip(distances.par_chunks_mut(k))
+            .enumerate()
+            .for_each(|(i, (nb, ds))| {
+                let found = index.nearest_k(points[i], k);
+                // Put the point itself first even when duplicates tie with it.
+                nb[0] = i as u32;
+                ds[0] = 0.0;
+                let others = found.into_iter().filter(|&(j, _)| j != i).take(k - 1);
+                for (slot, (j, d)) in (1..).zip(others) {
+                    nb[slot] = j as u32;
+                    ds[slot] = d;
+                }
+            });
+        Self {
+            k,
+            neighbours,
+            distances,
+        }
+    }
+
+    /// Neighbours per point (including the point itself).
+    pub fn k(&self) -> usize {
+        self.k
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.neighbours.len() / self.k
+    }
+
+    /// `true` for an empty graph.
+    pub fn is_empty(&self) -> bool {
+        self.neighbours.is_empty()
+    }
+
+    /// Neighbour indices of point `i`, itself first, then by increasing distance.
+    pub fn neighbours(&self, i: usize) -> &[u32] {
+        &self.neighbours[i * self.k..(i + 1) * self.k]
+    }
+
+    /// Distances matching [`KnnGraph::neighbours`].
+    pub fn distances(&self, i: usize) -> &[f64] {
+        &self.distances[i * self.k..(i + 1) * self.k]
+    }
+
+    /// Distance from point `i` to its farthest listed neighbour.
+    pub fn radius(&self, i: usize) -> f64 {
+        self.distances(i).last().copied().unwrap_or(0.0)
+    }
+}

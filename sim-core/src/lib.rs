@@ -1,0 +1,31 @@
+//! `sim-core`: the geometry and physics of dynamic point-set surfaces.
+//!
+//! Contract: pure computation. No I/O, no clocks, no global state; time enters as arguments.
+//! File formats are parsed from and written to caller-supplied readers and writers.
+//!
+//! The point-set surface (DESIGN §2), stage by stage:
+//! [`knn::PointIndex`] and [`knn::KnnGraph`] → [`normals`] (PCA, MST orientation) →
+//! [`field::GlobalField::build`] (per-point [`local_fit`] B-spline fields, blended) →
+//! queries `value`, `value_and_gradient`, `project_to_zero_set`; [`mesh`] extracts the zero set;
+//! [`reconstruct`] runs all stages; [`sampling`] makes analytic test shapes with exact signed
+//! distances; [`accuracy`] measures a zero set against a reference; [`io`] reads and writes
+//! PLY, OFF, OBJ, XYZ/PWN and STL.
+
+pub mod accuracy;
+pub mod bspline;
+pub mod field;
+pub mod io;
+pub mod knn;
+pub mod linalg;
+pub mod local_fit;
+pub mod mesh;
+pub mod normals;
+pub mod pointset;
+pub mod projection;
+pub mod reconstruct;
+pub mod sampling;
+pub mod spatial;
+
+pub use field::{FieldError, GlobalField, NoProgress, Progress};
+pub use local_fit::FitParams;
+pub use pointset::PointSet;

@@ -1,0 +1,208 @@
+//! Local fields (DESIGN §2): per point a frame, a cube domain enclosing its k neighbours and a
+//! trivariate uniform B-spline fitted by weighted least squares to the neighbours and two
+//! off-surface samples per neighbour.
+//!
+//! Contract: [`fit_local`] always returns finite coefficients. The normal equations are
+//! regularised (Tikhonov, toward the planar field of the point's tangent plane) so coplanar,
+//! collinear, duplicated or too few neighbours still give a defined fit whose coefficients are
+//! bounded by the data and the domain size. Fitting allocates nothing: scratch lives in
+//! [`FitScratch`], one per thread.
+
+use glam::DVec3;
+
+use crate::bspline::{MAX_SIZE, basis3, greville};
+use crate::linalg::{cholesky_solve, tangent_frame};
+
+/// Parameters of the local fits and the blend. Lengths are relative to each point's
+/// neighbourhood radius `r` (distance to its farthest used neighbour), so fits are scale-free.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FitParams {
+    /// Neighbours per point, the point itself included.
+    pub k: usize,
+    /// B-spline coefficients per axis (3..=6; the papers use 3).
+    pub size: usize,
+    /// Off-surface sample offset `ε`, as a fraction of `r`.
+    pub offset: f64,
+    /// Width `h` of the row weight `θ(d) = exp(−d²/h²)`, as a fraction of `r`.
+    pub weight_width: f64,
+    /// Tikhonov weight toward the planar field, relative to the mean diagonal of the normal matrix.
+    pub regularization: f64,
+    /// Radius of the blending weight `φ`, as a fraction of the domain half-size (≤ 1 keeps the
+    /// support inside the domain).
+    pub support: f64,
+    /// Neighbours whose normal has a dot product below this with the point's own are ignored
+    /// (the other sheet of a thin shell, a flipped normal).
+    pub normal_agreement: f64,
+    /// A point whose `r` exceeds this multiple of its neighbours' median `r` is an outlier: it
+    /// gets no local field and is nobody's neighbour.
+    pub outlier_ratio: f64,
+}
+
+impl Default for FitParams {
+    fn default() -> Self {
+        Self {
+            k: 20,
+            size: 3,
+            offset: 0.1,
+            weight_width: 0.7,
+            regularization: 1e-5,
+            support: 1.0,
+            normal_agreement: -0.5,
+            outlier_ratio: 4.0,
+        }
+    }
+}
+
+/// Where a local field lives: centre, orthonormal axes (two tangents, then the normal) and the
+/// half edge `half` of its cube domain. Local coordinates are `(x−c)·axisₖ/(2·half) + ½ ∈ [0,1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalFrame {
+    /// Centre of the domain (the point).
+    pub center: DVec3,
+    /// Tangent, tangent, outward normal.
+    pub axes: [DVec3; 3],
+    /// Half edge of the cube domain, in metres.
+    pub half: f64,
+}
+
+impl LocalFrame {
+    /// Local `(u,v,w)` of a world point (outside `[0,1]³` when outside the domain).
+    #[inline]
+    pub fn to_local(&self, x: DVec3) -> [f64; 3] {
+        let d = x - self.center;
+        let s = 0.5 / self.half;
+        [
+            d.dot(self.axes[0]) * s + 0.5,
+            d.dot(self.axes[1]) * s + 0.5,
+            d.dot(self.axes[2]) * s + 0.5,
+        ]
+    }
+
+    /// World point of local `(u,v,w)`.
+    #[inline]
+    pub fn to_world(&self, q: [f64; 3]) -> DVec3 {
+        let s = 2.0 * self.half;
+        self.center
+            + self.axes[0] * ((q[0] - 0.5) * s)
+            + self.axes[1] * ((q[1] - 0.5) * s)
+            + self.axes[2] * ((q[2] - 0.5) * s)
+    }
+}
+
+/// Reusable per-thread scratch for [`fit_local`].
+#[derive(Debug, Clone)]
+pub struct FitScratch {
+    ata: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl FitScratch {
+    /// Scratch for splines of up to `size` coefficients per axis.
+    pub fn new(size: usize) -> Self {
+        let c = size.clamp(3, MAX_SIZE).pow(3);
+        Self {
+            ata: vec![0.0; c * c],
+            rhs: vec![0.0; c],
+        }
+    }
+}
+
+/// The neighbourhood of one point: its position and normal and the candidate neighbours.
+#[derive(Debug, Clone, Copy)]
+pub struct Neighbourhood<'a> {
+    /// The point.
+    pub center: DVec3,
+    /// Its unit normal (the frame's third axis).
+    pub normal: DVec3,
+    /// Neighbour positions (the point itself may be among them).
+    pub points: &'a [DVec3],
+    /// Neighbour unit normals, matching `points`.
+    pub normals: &'a [DVec3],
+    /// Radius used when the neighbours span no distance (all duplicates, or alone).
+    pub fallback_radius: f64,
+}
+
+/// Fit the local field of one point; writes `size³` world-unit coefficients into `coeffs` and
+/// returns the frame. `hood.points.len()` ≤ 64 rows are expected; more are used but cost more.
+pub fn fit_local(
+    hood: &Neighbourhood<'_>,
+    params: &FitParams,
+    scratch: &mut FitScratch,
+    coeffs: &mut [f64],
+) -> LocalFrame {
+    let size = params.size;
+    let c = size * size * size;
+    debug_assert_eq!(coeffs.len(), c);
+    let normal = hood.normal.try_normalize().unwrap_or(DVec3::Z);
+    let (t1, t2) = tangent_frame(normal);
+    let usable = |j: usize| hood.normals[j].dot(normal) >= params.normal_agreement;
+    let mut r = 0.0f64;
+    for j in 0..hood.points.len() {
+        if usable(j) {
+            r = r.max((hood.points[j] - hood.center).length());
+        }
+    }
+    if !(r > 0.0 && r.is_finite()) {
+        r = hood.fallback_radius;
+    }
+    let eps = params.offset * r;
+    let frame = LocalFrame {
+        center: hood.center,
+        axes: [t1, t2, normal],
+        half: r + eps,
+    };
+    let inv_h2 = 1.0 / (params.weight_width * r).powi(2);
+    let inv_edge = 0.5 / frame.half;
+
+    let ata = &mut scratch.ata[..c * c];
+    let rhs = &mut scratch.rhs[..c];
+    ata.fill(0.0);
+    rhs.fill(0.0);
+    let (mut vals, mut idx) = ([0.0; 27], [0usize; 27]);
+    for j in 0..hood.points.len() {
+        if !usable(j) {
+            continue;
+        }
+        let p = hood.points[j];
+        let theta = (-(p - hood.center).length_squared() * inv_h2).exp();
+        let nj = hood.normals[j];
+        for (x, target) in [(p, 0.0), (p + nj * eps, eps), (p - nj * eps, -eps)] {
+            let [u, v, w] = frame.to_local(x);
+            basis3(size, u, v, w, &mut vals, &mut idx);
+            // Residual against the planar prior `w − ½` (normalised units).
+            let res = target * inv_edge - (w - 0.5);
+            for a in 0..27 {
+                let wa = theta * vals[a];
+                rhs[idx[a]] += wa * res;
+                let row = &mut ata[idx[a] * c..idx[a] * c + c];
+                if size == 3 {
+                    for b in a..27 {
+                        row[b] += wa * vals[b];
+                    }
+                } else {
+                    for b in a..27 {
+                        row[idx[b]] += wa * vals[b];
+                    }
+                }
+            }
+        }
+    }
+    let trace: f64 = (0..c).map(|a| ata[a * c + a]).sum();
+    let lambda = params.regularization * trace / c as f64 + f64::MIN_POSITIVE;
+    for a in 0..c {
+        ata[a * c + a] += lambda;
+    }
+    let solved = cholesky_solve(ata, rhs, c);
+    let edge = 2.0 * frame.half;
+    for a in 0..size {
+        for b in 0..size {
+            for cc in 0..size {
+                let flat = (a * size + b) * size + cc;
+                let plane = greville(size, cc) - 0.5;
+                let delta = if solved { rhs[flat] } else { 0.0 };
+                coeffs[flat] = (plane + delta) * edge;
+            }
+        }
+    }
+    frame
+}

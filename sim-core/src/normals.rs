@@ -1,0 +1,138 @@
+//! Normals for points that have none: PCA over the k-NN, then a consistent orientation by
+//! propagation over a minimum spanning tree of the k-NN graph (Hoppe et al. 1992).
+//!
+//! Contract: every returned normal is a finite unit vector. A neighbourhood without a defined
+//! plane (all duplicates) gets `+Z` before orientation. Given normals are never re-estimated;
+//! [`orient_consistently`] only flips signs.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+
+use crate::knn::KnnGraph;
+use crate::linalg::sym3_eigen;
+
+/// The PCA normal (least-variance axis) of each point's k-NN, unoriented. Runs on all cores.
+pub fn estimate_pca(points: &[DVec3], knn: &KnnGraph) -> Vec<DVec3> {
+    (0..points.len())
+        .into_par_iter()
+        .map(|i| pca_normal(points, knn.neighbours(i)))
+        .collect()
+}
+
+/// Fill in only the zero (unknown) entries of `normals` by PCA.
+pub fn fill_missing(points: &[DVec3], knn: &KnnGraph, normals: &mut [DVec3]) {
+    normals
+        .par_iter_mut()
+        .enumerate()
+        .filter(|(_, n)| **n == DVec3::ZERO)
+        .for_each(|(i, n)| {
+            *n = pca_normal(points, knn.neighbours(i));
+        });
+}
+
+fn pca_normal(points: &[DVec3], nb: &[u32]) -> DVec3 {
+    let centroid = nb.iter().map(|&j| points[j as usize]).sum::<DVec3>() / nb.len() as f64;
+    let mut cov = DMat3::ZERO;
+    for &j in nb {
+        let d = points[j as usize] - centroid;
+        cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+    }
+    match sym3_eigen(cov) {
+        Some((vals, vecs)) if vals[2] > 0.0 && vecs[0].is_normalized() => vecs[0],
+        _ => DVec3::Z,
+    }
+}
+
+/// Flip normals so neighbours agree, propagating along a minimum spanning tree of the
+/// (symmetrised) k-NN graph with edge cost `1 − |nᵢ·nⱼ|`. In each connected component the
+/// point with the largest `z` is made to face `+z` (for a closed surface it lies on the hull,
+/// where `+z` is outward). Returns the number of normals flipped.
+pub fn orient_consistently(points: &[DVec3], knn: &KnnGraph, normals: &mut [DVec3]) -> usize {
+    let n = points.len();
+    // Symmetric adjacency in CSR form.
+    let mut degree = vec![0u32; n + 1];
+    for i in 0..n {
+        for &j in &knn.neighbours(i)[1..] {
+            degree[i + 1] += 1;
+            degree[j as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        degree[i + 1] += degree[i];
+    }
+    let mut fill = degree.clone();
+    let mut adj = vec![0u32; degree[n] as usize];
+    for i in 0..n {
+        for &j in &knn.neighbours(i)[1..] {
+            adj[fill[i] as usize] = j;
+            fill[i] += 1;
+            adj[fill[j as usize] as usize] = i as u32;
+            fill[j as usize] += 1;
+        }
+    }
+    // Seeds: components visited in order of decreasing z, so each component's seed is its top.
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| points[b].z.total_cmp(&points[a].z));
+    let mut done = vec![false; n];
+    let mut flips = 0;
+    let mut heap = BinaryHeap::new();
+    for &seed in &order {
+        if done[seed] {
+            continue;
+        }
+        if normals[seed].z < 0.0 {
+            normals[seed] = -normals[seed];
+            flips += 1;
+        }
+        heap.push((Reverse(Cost(0.0)), seed as u32, seed as u32));
+        while let Some((_, node, parent)) = heap.pop() {
+            let node = node as usize;
+            if done[node] {
+                continue;
+            }
+            done[node] = true;
+            if node != parent as usize && normals[node].dot(normals[parent as usize]) < 0.0 {
+                normals[node] = -normals[node];
+                flips += 1;
+            }
+            for &m in &adj[degree[node] as usize..degree[node + 1] as usize] {
+                if !done[m as usize] {
+                    let cost = 1.0 - normals[node].dot(normals[m as usize]).abs();
+                    heap.push((Reverse(Cost(cost)), m, node as u32));
+                }
+            }
+        }
+    }
+    flips
+}
+
+/// After [`orient_consistently`] on a copy of given normals, keep the global sign the majority of
+/// the given normals agree with: flips all of `oriented` if most disagree with `given`.
+pub fn match_majority(given: &[DVec3], oriented: &mut [DVec3]) {
+    let agree = given
+        .iter()
+        .zip(oriented.iter())
+        .filter(|(g, o)| g.dot(**o) >= 0.0)
+        .count();
+    if 2 * agree < given.len() {
+        oriented.iter_mut().for_each(|o| *o = -*o);
+    }
+}
+
+/// A totally ordered edge cost for the heap.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Cost(f64);
+impl Eq for Cost {}
+impl PartialOrd for Cost {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Cost {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}

@@ -1,0 +1,148 @@
+//! A multi-level hash grid over spherical supports (centre, radius): "which supports contain x?"
+//! in O(supports near x), independent of the point count.
+//!
+//! Level `l` has cells of edge `base·2ˡ`; a support is stored once, in the cell holding its
+//! centre, on the finest level whose edge is at least twice its radius. A query then visits the
+//! 2×2×2 cells around `x` on each non-empty level. Contract: immutable after
+//! construction; queries do not allocate.
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use glam::DVec3;
+
+/// Index of spherical supports.
+#[derive(Debug, Clone)]
+pub struct SupportGrid {
+    base: f64,
+    origin: DVec3,
+    levels: Vec<Level>,
+}
+
+#[derive(Debug, Clone, Default)]
+struct Level {
+    cell: f64,
+    /// Cell key → range into `items`.
+    cells: HashMap<u64, (u32, u32), BuildHasherDefault<MulHasher>>,
+    items: Vec<u32>,
+}
+
+impl SupportGrid {
+    /// Index supports `i` with `radius[i] > 0` (others are never reported). `base` > 0 is the
+    /// finest cell edge; choose about twice the typical radius.
+    pub fn new(centers: &[DVec3], radius: &[f64], base: f64) -> Self {
+        let base = if base > 0.0 && base.is_finite() {
+            base
+        } else {
+            1.0
+        };
+        let origin = crate::pointset::bounds(centers).map_or(DVec3::ZERO, |(lo, _)| lo);
+        let level_of = |r: f64| -> usize {
+            let ratio = (2.0 * r / base).max(1.0);
+            (ratio.log2().ceil() as usize).min(60)
+        };
+        let nlevels = radius
+            .iter()
+            .filter(|r| **r > 0.0)
+            .map(|r| level_of(*r) + 1)
+            .max()
+            .unwrap_or(0);
+        let mut keyed: Vec<Vec<(u64, u32)>> = vec![Vec::new(); nlevels];
+        for (i, (&c, &r)) in centers.iter().zip(radius).enumerate() {
+            if r > 0.0 && r.is_finite() {
+                let l = level_of(r);
+                let cell = base * (1u64 << l) as f64;
+                keyed[l].push((key(cell_of(c - origin, cell)), i as u32));
+            }
+        }
+        let levels = keyed
+            .into_iter()
+            .enumerate()
+            .map(|(l, mut list)| {
+                list.sort_unstable();
+                let mut level = Level {
+                    cell: base * (1u64 << l) as f64,
+                    ..Level::default()
+                };
+                let mut start = 0;
+                while start < list.len() {
+                    let k = list[start].0;
+                    let end = start + list[start..].iter().take_while(|e| e.0 == k).count();
+                    level.cells.insert(k, (start as u32, end as u32));
+                    start = end;
+                }
+                level.items = list.into_iter().map(|(_, i)| i).collect();
+                level
+            })
+            .collect();
+        Self {
+            base,
+            origin,
+            levels,
+        }
+    }
+
+    /// Finest cell edge.
+    pub fn base(&self) -> f64 {
+        self.base
+    }
+
+    /// Call `visit(i)` for every stored support whose cell is near `x`: a superset of the
+    /// supports containing `x` (the caller tests the distance). Allocation-free.
+    #[inline]
+    pub fn for_each_candidate(&self, x: DVec3, mut visit: impl FnMut(usize)) {
+        let rel = x - self.origin;
+        for level in &self.levels {
+            if level.items.is_empty() {
+                continue;
+            }
+            let f = rel / level.cell;
+            let lo = (f - DVec3::splat(0.5)).floor();
+            if !lo.is_finite() || lo.abs().max_element() > 1e15 {
+                continue;
+            }
+            let lo = lo.as_i64vec3();
+            for dz in 0..2 {
+                for dy in 0..2 {
+                    for dx in 0..2 {
+                        let k = key([lo.x + dx, lo.y + dy, lo.z + dz]);
+                        if let Some(&(s, e)) = level.cells.get(&k) {
+                            for &i in &level.items[s as usize..e as usize] {
+                                visit(i as usize);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn cell_of(p: DVec3, cell: f64) -> [i64; 3] {
+    let f = (p / cell).floor();
+    [f.x as i64, f.y as i64, f.z as i64]
+}
+
+fn key(c: [i64; 3]) -> u64 {
+    // 21 bits per axis; wrapping collisions only merge cells, which stays correct (superset).
+    let m = (1u64 << 21) - 1;
+    ((c[0] as u64) & m) | (((c[1] as u64) & m) << 21) | (((c[2] as u64) & m) << 42)
+}
+
+/// Multiplicative hasher for already well-mixed 64-bit keys.
+#[derive(Debug, Default, Clone, Copy)]
+struct MulHasher(u64);
+
+impl Hasher for MulHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x100_0000_01b3);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (v ^ (v >> 29)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
+}
