@@ -76,7 +76,11 @@ impl GridSpec {
             let cells = (e / spacing - 1e-9).ceil().max(1.0);
             cells as usize + 1
         };
-        Ok(Self { origin: min, spacing, dims: [n(extent.x), n(extent.y), n(extent.z)] })
+        Ok(Self {
+            origin: min,
+            spacing,
+            dims: [n(extent.x), n(extent.y), n(extent.z)],
+        })
     }
 
     /// World position of node `(i, j, k)`.
@@ -172,7 +176,10 @@ impl ScalarGrid {
     /// Wrap node values (x fastest); rejects a wrong length and non-finite values.
     pub fn from_values(spec: GridSpec, values: Vec<f64>) -> Result<Self, GridError> {
         if values.len() != spec.node_count() {
-            return Err(GridError::WrongLength { expected: spec.node_count(), got: values.len() });
+            return Err(GridError::WrongLength {
+                expected: spec.node_count(),
+                got: values.len(),
+            });
         }
         if let Some((index, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(GridError::NonFinite { index, value });
@@ -202,7 +209,10 @@ impl ScalarGrid {
     /// publishers that recycle snapshots. Non-finite values are rejected and nothing changes.
     pub fn copy_from(&mut self, src: &[f64]) -> Result<(), GridError> {
         if src.len() != self.values.len() {
-            return Err(GridError::WrongLength { expected: self.values.len(), got: src.len() });
+            return Err(GridError::WrongLength {
+                expected: self.values.len(),
+                got: src.len(),
+            });
         }
         if let Some((index, &value)) = src.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(GridError::NonFinite { index, value });
@@ -244,7 +254,11 @@ pub fn node_gradient(spec: &GridSpec, values: &[f64], i: usize, j: usize, k: usi
     let axis = |n: usize, c: usize, get: &dyn Fn(usize) -> f64| -> f64 {
         let lo = c.saturating_sub(1);
         let hi = (c + 1).min(n - 1);
-        if hi == lo { 0.0 } else { diff(get(lo), get(hi), hi - lo) }
+        if hi == lo {
+            0.0
+        } else {
+            diff(get(lo), get(hi), hi - lo)
+        }
     };
     let [nx, ny, nz] = spec.dims;
     DVec3::new(
@@ -281,7 +295,11 @@ mod tests {
 
     #[test]
     fn index_round_trips() {
-        let s = GridSpec { origin: DVec3::ZERO, spacing: 1.0, dims: [3, 4, 5] };
+        let s = GridSpec {
+            origin: DVec3::ZERO,
+            spacing: 1.0,
+            dims: [3, 4, 5],
+        };
         for idx in 0..s.node_count() {
             let [i, j, k] = s.coords(idx);
             assert_eq!(s.index(i, j, k), idx);
@@ -294,7 +312,12 @@ mod tests {
         // including one-sided differences on the boundary: tolerance is round-off only.
         let a = DVec3::new(0.3, -1.7, 2.2);
         let g = ScalarGrid::from_fn(spec(), |x| a.dot(x) + 0.5);
-        for x in [DVec3::ZERO, DVec3::new(0.93, -0.41, 0.07), DVec3::splat(-1.0), DVec3::ONE] {
+        for x in [
+            DVec3::ZERO,
+            DVec3::new(0.93, -0.41, 0.07),
+            DVec3::splat(-1.0),
+            DVec3::ONE,
+        ] {
             let s = g.sample(x).unwrap();
             assert!((s.value - (a.dot(x) + 0.5)).abs() < 1e-12, "{x}");
             assert!((s.gradient - a).length() < 1e-10, "{x}");
@@ -314,14 +337,24 @@ mod tests {
 
     #[test]
     fn from_values_validates() {
-        let s = GridSpec { origin: DVec3::ZERO, spacing: 1.0, dims: [2, 2, 2] };
+        let s = GridSpec {
+            origin: DVec3::ZERO,
+            spacing: 1.0,
+            dims: [2, 2, 2],
+        };
         assert!(matches!(
             ScalarGrid::from_values(s, vec![0.0; 7]),
-            Err(GridError::WrongLength { expected: 8, got: 7 })
+            Err(GridError::WrongLength {
+                expected: 8,
+                got: 7
+            })
         ));
         let mut v = vec![0.0; 8];
         v[3] = f64::NAN;
-        assert!(matches!(ScalarGrid::from_values(s, v), Err(GridError::NonFinite { index: 3, .. })));
+        assert!(matches!(
+            ScalarGrid::from_values(s, v),
+            Err(GridError::NonFinite { index: 3, .. })
+        ));
         let g = ScalarGrid::from_values(s, (0..8).map(f64::from).collect()).unwrap();
         assert_eq!(g.node(1, 1, 1), 7.0);
     }

@@ -14,6 +14,7 @@
 pub mod accuracy;
 pub mod bspline;
 pub mod field;
+pub mod grid;
 pub mod io;
 pub mod knn;
 pub mod linalg;
