@@ -4,5 +4,6 @@ mod clock;
 mod examples;
 mod fuzz;
 mod golden;
+mod python_client;
 mod rejections;
 mod roundtrip;
