@@ -1,1 +1,24 @@
-//! `haptics-server`: device backends, the servo loop and the transports.
+//! `haptics-server`: owns the haptic device and serves it to one workstation at a time.
+//!
+//! - [`device`]: the [`device::Device`] trait and its backends (`fake`, `replay`, `hid`,
+//!   `openhaptics`).
+//! - [`servo`]: the deterministic servo core ([`servo::ServoCore`], no I/O, no clock), its
+//!   safety stages, and the thin real-time driver thread around it.
+//! - [`telemetry`]: HDR histograms of period and tick cost, counters, session recording.
+//! - [`transport`]: the UDP (TLS-over-TCP control + MAC'd datagrams) and QUIC transports.
+//! - [`client`]: the workstation side of the handshake and hot path, reused by `workstation`.
+//! - [`server`]: [`server::Server::start`] wires a device, the servo thread and a transport;
+//!   tests start servers in-process with it.
+//! - [`config`]: the TOML configuration, validated with field names in every error.
+//! - [`tls`]: self-signed certificates (`gen-cert`) and the pinned-certificate verifier.
+
+pub mod client;
+pub mod clock;
+pub mod config;
+pub mod device;
+pub mod loop_bench;
+pub mod server;
+pub mod servo;
+pub mod telemetry;
+pub mod tls;
+pub mod transport;

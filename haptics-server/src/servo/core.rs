@@ -1,0 +1,194 @@
+//! The deterministic servo core: no I/O, no clock, no allocation, no locks.
+//!
+//! Driven by its owner in this order (the driver thread does it once per period):
+//! 1. [`ServoCore::on_event`] for every session event (start, config, emergency stop, end),
+//! 2. [`ServoCore::on_command`] for every force command that arrived (the newest wins),
+//! 3. [`ServoCore::tick`]`(now, sample)` with the device reading; it returns the cursor to
+//!    publish and the force to write: the newest command's local model rendered at the
+//!    *current* position ([`protocol::ModelRenderer`]), optionally smoothed
+//!    (`E ← αE + (1−α)F`), then passed through the [`Safety`] stages.
+//!
+//! Everything is plain arithmetic on fixed-size state, so a tick costs well under a microsecond
+//! and the same inputs give bit-identical outputs.
+
+use glam::Vec3;
+use protocol::control::Config;
+use protocol::{CursorSample, ForceCommand, ModelKind, ModelRenderer};
+
+use super::safety::{Safety, SafetyOutcome, SafetyParams};
+use crate::device::DeviceSample;
+
+/// Servo parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoParams {
+    /// Loop rate, Hz.
+    pub rate_hz: u32,
+    /// Safety limits (`max_force_n` already the device limit ∧ the configured one).
+    pub safety: SafetyParams,
+    /// Smoothing `α` in `[0, 1)`; 0 = off.
+    pub smoothing_alpha: f32,
+    /// The device's force limit, N: `Config.force_limit_n` can only lower the limit below this.
+    pub device_max_force_n: f32,
+    /// Largest stiffness rendered, N/m: local models are clamped to it.
+    pub max_stiffness_n_per_m: f32,
+    /// Buttons that latch the emergency stop while pressed (0 = none).
+    pub estop_button_mask: u16,
+}
+
+impl ServoParams {
+    /// Nominal period, ns.
+    pub fn period_ns(&self) -> u64 {
+        1_000_000_000 / u64::from(self.rate_hz.max(1))
+    }
+}
+
+/// Something the network side tells the servo loop, outside the hot path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SessionEvent {
+    /// A workstation session is up: arm the output.
+    Start,
+    /// New settings from the workstation (already validated).
+    Config(Config),
+    /// Latch (`true`) or release the emergency stop.
+    EmergencyStop(bool),
+    /// The session is over: output falls to zero.
+    End,
+}
+
+/// The result of one tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickOutput {
+    /// What to publish to the workstation (its `output_force` is what the device outputs from
+    /// this tick on).
+    pub cursor: CursorSample,
+    /// What the safety stages did; `safety.force` is what to write.
+    pub safety: SafetyOutcome,
+}
+
+/// The servo core; see the module doc.
+#[derive(Debug, Clone)]
+pub struct ServoCore {
+    params: ServoParams,
+    renderer: ModelRenderer,
+    command: Option<(ForceCommand, u64)>,
+    smoothed: Vec3,
+    safety: Safety,
+    session_up: bool,
+    tick: u32,
+}
+
+impl ServoCore {
+    /// A core with no session: zero output.
+    pub fn new(params: ServoParams) -> Self {
+        Self {
+            safety: Safety::new(params.safety, params.period_ns()),
+            params,
+            renderer: ModelRenderer::new(),
+            command: None,
+            smoothed: Vec3::ZERO,
+            session_up: false,
+            tick: 0,
+        }
+    }
+
+    /// Apply a session event at `now_ns`.
+    pub fn on_event(&mut self, _now_ns: u64, event: SessionEvent) {
+        match event {
+            SessionEvent::Start => {
+                self.session_up = true;
+                self.command = None;
+                self.smoothed = Vec3::ZERO;
+                self.renderer.reset();
+                self.safety.session_started();
+            }
+            SessionEvent::End => {
+                self.session_up = false;
+                self.command = None;
+                self.safety.session_ended();
+            }
+            SessionEvent::EmergencyStop(engage) => {
+                self.safety.emergency_stop(engage, self.session_up);
+            }
+            SessionEvent::Config(c) => {
+                self.params.smoothing_alpha = c.smoothing_alpha;
+                let mut s = *self.safety.params();
+                s.watchdog_fade_start_ns = u64::from(c.watchdog_fade_start_us) * 1_000;
+                s.watchdog_zero_ns = u64::from(c.watchdog_zero_us) * 1_000;
+                s.max_force_n = c.force_limit_n.min(self.params.device_max_force_n);
+                self.safety.set_params(s);
+            }
+        }
+    }
+
+    /// A validated force command arrived at `arrived_ns`; it replaces the previous one.
+    /// Ignored without a session. Stiffness is clamped to the device's limit here.
+    pub fn on_command(&mut self, arrived_ns: u64, mut command: ForceCommand) {
+        if !self.session_up {
+            return;
+        }
+        let model = &mut command.model;
+        model.stiffness = model.stiffness.min(self.params.max_stiffness_n_per_m);
+        if self.command.is_none_or(|(c, _)| c.model.kind != model.kind)
+            || model.kind == ModelKind::None
+        {
+            self.renderer.reset();
+        }
+        self.command = Some((command, arrived_ns));
+    }
+
+    /// One servo tick at `now_ns` with the device reading `sample`.
+    pub fn tick(&mut self, now_ns: u64, sample: &DeviceSample) -> TickOutput {
+        let output_before = self.safety.last_force();
+        if sample.buttons & self.params.estop_button_mask != 0 && !self.safety.stopped() {
+            self.safety.emergency_stop(true, self.session_up);
+        }
+        let (rendered, since) = match &self.command {
+            Some((cmd, arrived)) => {
+                let age_ns = now_ns.saturating_sub(*arrived);
+                let f = self
+                    .renderer
+                    .render(cmd, sample.position, sample.velocity, age_ns / 1_000);
+                (f, Some(age_ns))
+            }
+            None => (Vec3::ZERO, None),
+        };
+        let a = self.params.smoothing_alpha;
+        self.smoothed = if a > 0.0 && a < 1.0 && self.smoothed.is_finite() {
+            a * self.smoothed + (1.0 - a) * rendered
+        } else {
+            rendered
+        };
+        let safety = self.safety.apply(now_ns, self.smoothed, since);
+        let cursor = CursorSample {
+            position: sample.position,
+            orientation: sample.orientation,
+            velocity: sample.velocity,
+            buttons: sample.buttons,
+            output_force: if safety.force.is_finite() {
+                safety.force
+            } else {
+                output_before
+            },
+            servo_tick: self.tick,
+            engaged: self.safety.engaged(),
+            estop: self.safety.stopped(),
+        };
+        self.tick = self.tick.wrapping_add(1);
+        TickOutput { cursor, safety }
+    }
+
+    /// The safety filter (stage, limits).
+    pub fn safety(&self) -> &Safety {
+        &self.safety
+    }
+
+    /// The smoothed force before safety, N.
+    pub fn smoothed(&self) -> Vec3 {
+        self.smoothed
+    }
+
+    /// A session is up.
+    pub fn session_up(&self) -> bool {
+        self.session_up
+    }
+}

@@ -1,0 +1,319 @@
+//! The driver thread: the only place the servo loop meets time, the device and the network.
+//!
+//! Per period: wait for the absolute deadline ([`rt::wait_until`]: sleep, then a short spin),
+//! drain the session-event and force-command rings (wait-free `rtrb` pops), read the device,
+//! [`ServoCore::tick`], publish the cursor (one non-blocking `send_to` for UDP, or a ring push
+//! plus an `unpark` of the QUIC sender thread), write the force, push a [`TickRecord`] to the
+//! telemetry ring. No allocation, no lock, no blocking call inside the tick; full rings drop
+//! (telemetry) or keep the newest (commands are drained every tick, so they never fill).
+//! A tick that starts more than one period late is an overrun; missed deadlines are skipped,
+//! not made up in a burst.
+
+use std::net::{SocketAddr, UdpSocket};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use protocol::packet::MAX_PACKET_BYTES;
+use protocol::{Body, ForceCommand, Outbound, SessionKey};
+
+use super::core::{ServoCore, ServoParams, SessionEvent};
+use super::rt::{self, RtReport, RtRequest};
+use crate::clock::MonoClock;
+use crate::device::{Device, DeviceSample};
+use crate::telemetry::{self, ServoStats, Telemetry, TickRecord, record::Recorder};
+
+/// A message from the network side to the servo thread.
+#[derive(Debug, Clone)]
+pub enum ServoMsg {
+    /// A session started: arm the output, number cursor packets for `session` (MAC'd with
+    /// `key` when `Some`, i.e. UDP).
+    Start {
+        /// Session id from `Welcome`.
+        session: u32,
+        /// The hot-path key (UDP only).
+        key: Option<SessionKey>,
+    },
+    /// Where to send cursor packets (UDP: learned from the client's first authentic packet).
+    Peer(SocketAddr),
+    /// A settings or emergency-stop event for the core.
+    Core(SessionEvent),
+    /// The session ended.
+    End,
+}
+
+/// One encoded cursor packet on its way to the QUIC sender thread.
+#[derive(Debug, Clone, Copy)]
+pub struct Datagram {
+    /// Valid bytes in `bytes`.
+    pub len: usize,
+    /// The packet.
+    pub bytes: [u8; MAX_PACKET_BYTES],
+}
+
+/// Where cursor packets go.
+#[derive(Debug)]
+pub enum CursorSink {
+    /// Nowhere (loop-bench, tests of the loop alone).
+    None,
+    /// A non-blocking UDP socket (shared with the receiver).
+    Udp(UdpSocket),
+    /// A ring drained by a sender thread, which is unparked after each push.
+    Ring(rtrb::Producer<Datagram>, std::thread::Thread),
+}
+
+/// The network side's handle on the servo thread.
+#[derive(Debug)]
+pub struct ServoLink {
+    /// Validated force commands with their arrival time (server clock, ns).
+    pub commands: rtrb::Producer<(ForceCommand, u64)>,
+    /// Session events.
+    pub events: rtrb::Producer<ServoMsg>,
+    /// The telemetry snapshot (updated every 10 ms by the telemetry thread).
+    pub stats: Arc<Mutex<ServoStats>>,
+}
+
+/// Everything the driver needs besides the device and sink.
+#[derive(Debug, Clone)]
+pub struct DriverConfig {
+    /// Core parameters (rate, safety, smoothing).
+    pub params: ServoParams,
+    /// Real-time requests for the servo thread.
+    pub rt: RtRequest,
+    /// Spin this long before each deadline.
+    pub spin: Duration,
+    /// Log a telemetry summary this often (zero = never).
+    pub log_every: Duration,
+    /// Record the session here.
+    pub record: Option<PathBuf>,
+}
+
+/// The running servo and telemetry threads.
+#[derive(Debug)]
+pub struct ServoThreads {
+    stop: Arc<AtomicBool>,
+    servo: Option<JoinHandle<RtReport>>,
+    telemetry: Option<JoinHandle<()>>,
+}
+
+impl ServoThreads {
+    /// Stop the loop (the device is left at zero force) and wait for both threads.
+    pub fn stop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(h) = self.servo.take() {
+            let _ = h.join();
+        }
+        if let Some(h) = self.telemetry.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+impl Drop for ServoThreads {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// Start the servo thread (and its telemetry thread) on `device`.
+pub fn spawn<D: Device + 'static>(
+    mut device: D,
+    sink: CursorSink,
+    cfg: DriverConfig,
+    clock: MonoClock,
+) -> std::io::Result<(ServoLink, ServoThreads)> {
+    let (commands, command_rx) = rtrb::RingBuffer::new(256);
+    let (events, event_rx) = rtrb::RingBuffer::new(64);
+    let (record_tx, record_rx) = rtrb::RingBuffer::new(16_384);
+    let stats = Arc::new(Mutex::new(ServoStats::default()));
+    let stop = Arc::new(AtomicBool::new(false));
+    let dropped = Arc::new(AtomicU64::new(0));
+    let recorder = match &cfg.record {
+        Some(p) => Some(Recorder::create(p)?),
+        None => None,
+    };
+    let telemetry = {
+        let (stats, stop, dropped) = (Arc::clone(&stats), Arc::clone(&stop), Arc::clone(&dropped));
+        let log_every = cfg.log_every;
+        std::thread::Builder::new()
+            .name("telemetry".into())
+            .spawn(move || {
+                telemetry::run(
+                    record_rx,
+                    Telemetry::new(recorder),
+                    stats,
+                    dropped,
+                    stop,
+                    log_every,
+                )
+            })?
+    };
+    let servo = {
+        let stop = Arc::clone(&stop);
+        std::thread::Builder::new()
+            .name("servo".into())
+            .spawn(move || {
+                let report = rt::setup_current_thread(cfg.rt);
+                for w in &report.warnings {
+                    tracing::warn!("{w}");
+                }
+                if let Err(e) = device.start() {
+                    tracing::error!("device start failed: {e}");
+                }
+                let mut lp = Loop {
+                    core: ServoCore::new(cfg.params),
+                    sink,
+                    outbound: None,
+                    peer: None,
+                    command_rx,
+                    event_rx,
+                    record_tx,
+                    dropped,
+                    clock,
+                    last_sample: DeviceSample::default(),
+                    buf: [0; MAX_PACKET_BYTES],
+                };
+                lp.run(&mut device, &stop, cfg.params.period_ns(), cfg.spin);
+                device.stop();
+                report
+            })?
+    };
+    let link = ServoLink {
+        commands,
+        events,
+        stats,
+    };
+    Ok((
+        link,
+        ServoThreads {
+            stop,
+            servo: Some(servo),
+            telemetry: Some(telemetry),
+        },
+    ))
+}
+
+struct Loop {
+    core: ServoCore,
+    sink: CursorSink,
+    outbound: Option<Outbound>,
+    peer: Option<SocketAddr>,
+    command_rx: rtrb::Consumer<(ForceCommand, u64)>,
+    event_rx: rtrb::Consumer<ServoMsg>,
+    record_tx: rtrb::Producer<TickRecord>,
+    dropped: Arc<AtomicU64>,
+    clock: MonoClock,
+    last_sample: DeviceSample,
+    buf: [u8; MAX_PACKET_BYTES],
+}
+
+impl Loop {
+    fn run(&mut self, device: &mut dyn Device, stop: &AtomicBool, period_ns: u64, spin: Duration) {
+        let period = Duration::from_nanos(period_ns);
+        let mut deadline = Instant::now() + period;
+        let mut prev_ns: Option<u64> = None;
+        while !stop.load(Ordering::Acquire) {
+            let started = rt::wait_until(deadline, spin);
+            let now_ns = self.clock.ns_at(started);
+            let lateness = started.saturating_duration_since(deadline);
+            let mut record = self.tick(device, now_ns);
+            let cost = Instant::now().saturating_duration_since(started);
+            record.lateness_ns = u64::try_from(lateness.as_nanos()).unwrap_or(u64::MAX);
+            record.cost_ns = u64::try_from(cost.as_nanos()).unwrap_or(u64::MAX);
+            record.period_ns = prev_ns.map_or(0, |p| now_ns.saturating_sub(p));
+            record.overrun = lateness > period;
+            prev_ns = Some(now_ns);
+            if self.record_tx.push(record).is_err() {
+                self.dropped.fetch_add(1, Ordering::Relaxed);
+            }
+            deadline += period;
+            let now = Instant::now();
+            if now > deadline + period {
+                // Fell behind: skip the missed deadlines instead of bursting to catch up.
+                let behind = now.saturating_duration_since(deadline).as_nanos()
+                    / u128::from(period_ns.max(1));
+                deadline += period * u32::try_from(behind).unwrap_or(u32::MAX);
+            }
+        }
+    }
+
+    /// One tick; see the module doc. No allocation, no lock.
+    fn tick(&mut self, device: &mut dyn Device, now_ns: u64) -> TickRecord {
+        while let Ok(msg) = self.event_rx.pop() {
+            match msg {
+                ServoMsg::Start { session, key } => {
+                    self.outbound = Some(Outbound::new(session, key));
+                    self.peer = None;
+                    self.core.on_event(now_ns, SessionEvent::Start);
+                }
+                ServoMsg::Peer(addr) => self.peer = Some(addr),
+                ServoMsg::Core(ev) => self.core.on_event(now_ns, ev),
+                ServoMsg::End => {
+                    self.outbound = None;
+                    self.peer = None;
+                    self.core.on_event(now_ns, SessionEvent::End);
+                }
+            }
+        }
+        while let Ok((cmd, arrived)) = self.command_rx.pop() {
+            self.core.on_command(arrived, cmd);
+        }
+        let mut device_error = false;
+        match device.read(now_ns) {
+            Ok(s) => self.last_sample = s,
+            Err(_) => device_error = true,
+        }
+        let out = self.core.tick(now_ns, &self.last_sample);
+        let sent = self.publish(now_ns, &out.cursor);
+        let force = if out.safety.force.is_finite() {
+            out.safety.force
+        } else {
+            Vec3::ZERO
+        };
+        if device.write_force(force).is_err() {
+            device_error = true;
+        }
+        TickRecord {
+            now_ns,
+            lateness_ns: 0,
+            period_ns: 0,
+            cost_ns: 0,
+            overrun: false,
+            sent,
+            clamped: out.safety.clamped,
+            fade_started: out.safety.fade_started,
+            nonfinite: out.safety.nonfinite,
+            device_error,
+            cursor: out.cursor,
+        }
+    }
+
+    fn publish(&mut self, now_ns: u64, cursor: &protocol::CursorSample) -> bool {
+        let Some(outbound) = &mut self.outbound else {
+            return false;
+        };
+        match &mut self.sink {
+            CursorSink::None => false,
+            CursorSink::Udp(socket) => {
+                let Some(peer) = self.peer else {
+                    return false;
+                };
+                let len = outbound.encode(now_ns, Body::Cursor(*cursor), &mut self.buf);
+                socket.send_to(&self.buf[..len], peer).is_ok()
+            }
+            CursorSink::Ring(producer, waker) => {
+                let mut d = Datagram {
+                    len: 0,
+                    bytes: [0; MAX_PACKET_BYTES],
+                };
+                d.len = outbound.encode(now_ns, Body::Cursor(*cursor), &mut d.bytes);
+                let ok = producer.push(d).is_ok();
+                waker.unpark();
+                ok
+            }
+        }
+    }
+}

@@ -1,0 +1,13 @@
+//! The servo loop: a deterministic core ([`ServoCore`], [`safety`]) and a thin driver thread
+//! ([`driver`]) with its real-time setup ([`rt`]).
+
+pub mod core;
+pub mod driver;
+pub mod rt;
+pub mod safety;
+
+pub use self::core::{ServoCore, ServoParams, SessionEvent, TickOutput};
+pub use safety::{Safety, SafetyParams, Stage};
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,298 @@
+//! Core tests on a virtual clock: every tick is `tick(now, sample)` with `now` stepped by hand.
+
+use glam::Vec3;
+use protocol::control::Config;
+use protocol::{ForceCommand, LocalModel, ModelKind};
+
+use super::core::{ServoCore, ServoParams, SessionEvent};
+use super::safety::{SafetyParams, Stage};
+use crate::device::DeviceSample;
+
+const MS: u64 = 1_000_000;
+
+fn params() -> ServoParams {
+    ServoParams {
+        rate_hz: 1000,
+        safety: SafetyParams::default(),
+        smoothing_alpha: 0.0,
+        device_max_force_n: 3.3,
+        max_stiffness_n_per_m: 700.0,
+        estop_button_mask: 0b10,
+    }
+}
+
+fn constant(force: Vec3) -> ForceCommand {
+    ForceCommand {
+        force,
+        torque: None,
+        answers_sequence: 0,
+        answers_timestamp_ns: 0,
+        model: LocalModel::default(),
+    }
+}
+
+fn plane(k: f32) -> ForceCommand {
+    ForceCommand {
+        model: LocalModel {
+            kind: ModelKind::Plane,
+            point: Vec3::ZERO,
+            normal: Vec3::Y,
+            stiffness: k,
+            damping: 0.0,
+            friction: 0.0,
+            validity_radius: 0.05,
+            lifetime_us: 10_000_000,
+        },
+        ..constant(Vec3::ZERO)
+    }
+}
+
+fn at(y: f32) -> DeviceSample {
+    DeviceSample {
+        position: Vec3::new(0.0, y, 0.0),
+        ..DeviceSample::default()
+    }
+}
+
+/// Ticks at 1 ms from `*t` to `*t + n ms`, re-sending `cmd` every tick when given.
+fn run(
+    core: &mut ServoCore,
+    t: &mut u64,
+    n: u64,
+    cmd: Option<ForceCommand>,
+    s: DeviceSample,
+) -> Vec3 {
+    let mut f = Vec3::ZERO;
+    for _ in 0..n {
+        *t += MS;
+        if let Some(c) = cmd {
+            core.on_command(*t, c);
+        }
+        f = core.tick(*t, &s).safety.force;
+    }
+    f
+}
+
+/// A core with a session up and output engaged at `force`.
+fn engaged(force: Vec3) -> (ServoCore, u64) {
+    let mut core = ServoCore::new(params());
+    let mut t = 0;
+    core.on_event(t, SessionEvent::Start);
+    run(&mut core, &mut t, 300, Some(constant(Vec3::ZERO)), at(0.0));
+    assert_eq!(core.safety().stage(), Stage::Engaged);
+    run(&mut core, &mut t, 100, Some(constant(force)), at(0.0));
+    (core, t)
+}
+
+#[test]
+fn no_force_without_a_session() {
+    let mut core = ServoCore::new(params());
+    let mut t = 0;
+    let f = run(&mut core, &mut t, 50, Some(constant(Vec3::X)), at(0.0));
+    assert_eq!(f, Vec3::ZERO);
+    assert_eq!(core.safety().stage(), Stage::Idle);
+}
+
+#[test]
+fn ramp_in_is_linear_over_the_ramp_time() {
+    let mut core = ServoCore::new(params());
+    let mut t = 0;
+    core.on_event(t, SessionEvent::Start);
+    let cmd = Some(constant(Vec3::new(0.4, 0.0, 0.0)));
+    // First tick arms the ramp (force 0.4 N ≤ 0.5 N threshold) and outputs zero.
+    assert_eq!(run(&mut core, &mut t, 1, cmd, at(0.0)), Vec3::ZERO);
+    let ramp_start = t;
+    let f = run(&mut core, &mut t, 100, cmd, at(0.0));
+    let expected = 0.4 * (t - ramp_start) as f32 / 200.0 / MS as f32;
+    assert!((f.x - expected).abs() < 1e-4, "{f} vs {expected}");
+    let f = run(&mut core, &mut t, 100, cmd, at(0.0));
+    assert!((f.x - 0.4).abs() < 1e-6, "{f}");
+    assert_eq!(core.safety().stage(), Stage::Engaged);
+}
+
+#[test]
+fn engages_only_once_the_command_is_small() {
+    let mut core = ServoCore::new(params());
+    let mut t = 0;
+    core.on_event(t, SessionEvent::Start);
+    let f = run(
+        &mut core,
+        &mut t,
+        50,
+        Some(constant(Vec3::new(2.0, 0.0, 0.0))),
+        at(0.0),
+    );
+    assert_eq!(f, Vec3::ZERO);
+    assert_eq!(core.safety().stage(), Stage::Armed);
+    run(
+        &mut core,
+        &mut t,
+        1,
+        Some(constant(Vec3::new(0.1, 0.0, 0.0))),
+        at(0.0),
+    );
+    assert!(matches!(core.safety().stage(), Stage::Ramping { .. }));
+}
+
+#[test]
+fn clamp_keeps_direction() {
+    let want = Vec3::new(3.0, 4.0, 0.0);
+    let (mut core, mut t) = engaged(want);
+    let f = run(&mut core, &mut t, 10, Some(constant(want)), at(0.0));
+    assert!((f.length() - 3.3).abs() < 1e-5, "{f}");
+    assert!(f.normalize().abs_diff_eq(want.normalize(), 1e-6), "{f}");
+}
+
+#[test]
+fn slew_rate_is_limited() {
+    let (mut core, mut t) = engaged(Vec3::ZERO);
+    let mut prev = core.safety().last_force();
+    let cmd = Some(constant(Vec3::new(0.0, 0.0, 3.0)));
+    for _ in 0..20 {
+        let f = run(&mut core, &mut t, 1, cmd, at(0.0));
+        // 200 N/s × 1 ms = 0.2 N per tick.
+        assert!((f - prev).length() <= 0.2 + 1e-5, "{prev} -> {f}");
+        prev = f;
+    }
+    assert!((prev.z - 3.0).abs() < 1e-5, "reaches the target: {prev}");
+}
+
+#[test]
+fn watchdog_fades_from_20_ms_to_zero_at_30_ms() {
+    let (mut core, mut t) = engaged(Vec3::X);
+    let last_command = t;
+    let mut at_ms = |core: &mut ServoCore, ms: u64| {
+        let n = (last_command + ms * MS - t) / MS;
+        run(core, &mut t, n, None, at(0.0))
+    };
+    assert!((at_ms(&mut core, 20).x - 1.0).abs() < 1e-6);
+    assert!((at_ms(&mut core, 25).x - 0.5).abs() < 1e-4);
+    assert_eq!(at_ms(&mut core, 30), Vec3::ZERO);
+    // Zero re-arms: the next command must ramp in again, not jump.
+    assert_eq!(core.safety().stage(), Stage::Armed);
+    let f = run(&mut core, &mut t, 1, Some(constant(Vec3::X)), at(0.0));
+    assert_eq!(f, Vec3::ZERO);
+}
+
+#[test]
+fn local_model_force_is_stiffness_times_penetration() {
+    let (mut core, mut t) = engaged(Vec3::ZERO);
+    // Re-send the plane every tick; the cursor is 2 mm below it: 500 N/m × 2 mm = 1 N along +y.
+    let f = run(&mut core, &mut t, 50, Some(plane(500.0)), at(-0.002));
+    assert!((f - Vec3::new(0.0, 1.0, 0.0)).length() < 1e-5, "{f}");
+    // The model is rendered at the current position without a new command: 3 mm → 1.5 N.
+    let f = run(&mut core, &mut t, 10, None, at(-0.003));
+    assert!((f.y - 1.5).abs() < 1e-5, "{f}");
+    // Stiffness beyond the device's 700 N/m is clamped: 2 mm → 1.4 N, not 10 N.
+    let f = run(&mut core, &mut t, 50, Some(plane(5_000.0)), at(-0.002));
+    assert!((f.y - 1.4).abs() < 1e-5, "{f}");
+}
+
+#[test]
+fn ewma_matches_its_closed_form() {
+    let mut core = ServoCore::new(params());
+    let mut t = 0;
+    core.on_event(t, SessionEvent::Start);
+    let alpha = 0.9f32;
+    core.on_event(
+        t,
+        SessionEvent::Config(Config {
+            smoothing_alpha: alpha,
+            ..Config::DEFAULT
+        }),
+    );
+    let f = Vec3::new(0.3, 0.0, 0.0);
+    for n in 1..=50 {
+        run(&mut core, &mut t, 1, Some(constant(f)), at(0.0));
+        // E_n = (1 − αⁿ)·F from E_0 = 0.
+        let expected = (1.0 - alpha.powi(n)) * f.x;
+        assert!(
+            (core.smoothed().x - expected).abs() < 1e-5,
+            "n={n}: {} vs {expected}",
+            core.smoothed().x
+        );
+    }
+}
+
+#[test]
+fn non_finite_never_reaches_the_device() {
+    let (mut core, mut t) = engaged(Vec3::ZERO);
+    let mut anchor = plane(500.0);
+    anchor.model.kind = ModelKind::Anchor;
+    let nan = DeviceSample {
+        position: Vec3::NAN,
+        ..DeviceSample::default()
+    };
+    for _ in 0..10 {
+        t += MS;
+        core.on_command(t, anchor);
+        let out = core.tick(t, &nan);
+        assert!(out.safety.force.is_finite());
+        assert!(out.cursor.output_force.is_finite());
+    }
+}
+
+#[test]
+fn emergency_stop_zeroes_at_once_and_release_ramps_in() {
+    let (mut core, mut t) = engaged(Vec3::X);
+    core.on_event(t, SessionEvent::EmergencyStop(true));
+    let f = run(&mut core, &mut t, 1, Some(constant(Vec3::X)), at(0.0));
+    assert_eq!(f, Vec3::ZERO, "no slew on an emergency stop");
+    assert!(core.tick(t + MS, &at(0.0)).cursor.estop);
+    core.on_event(t, SessionEvent::EmergencyStop(false));
+    assert_eq!(core.safety().stage(), Stage::Armed);
+    // Button 1 (mask 0b10) latches it too.
+    let (mut core, mut t) = engaged(Vec3::X);
+    let pressed = DeviceSample {
+        buttons: 0b10,
+        ..at(0.0)
+    };
+    assert_eq!(
+        run(&mut core, &mut t, 1, Some(constant(Vec3::X)), pressed),
+        Vec3::ZERO
+    );
+    assert_eq!(core.safety().stage(), Stage::Stopped);
+}
+
+#[test]
+fn config_force_limit_lowers_but_never_raises_the_clamp() {
+    let (mut core, mut t) = engaged(Vec3::X);
+    core.on_event(
+        t,
+        SessionEvent::Config(Config {
+            force_limit_n: 0.5,
+            ..Config::DEFAULT
+        }),
+    );
+    let f = run(&mut core, &mut t, 20, Some(constant(Vec3::X)), at(0.0));
+    assert!((f.x - 0.5).abs() < 1e-6, "{f}");
+    core.on_event(
+        t,
+        SessionEvent::Config(Config {
+            force_limit_n: 50.0,
+            ..Config::DEFAULT
+        }),
+    );
+    let f = run(
+        &mut core,
+        &mut t,
+        50,
+        Some(constant(Vec3::X * 10.0)),
+        at(0.0),
+    );
+    assert!((f.x - 3.3).abs() < 1e-5, "{f}");
+}
+
+#[test]
+fn session_end_drops_output_and_same_inputs_give_same_outputs() {
+    let go = || {
+        let (mut core, mut t) = engaged(Vec3::new(0.2, 0.1, 0.0));
+        let a = run(&mut core, &mut t, 7, Some(plane(400.0)), at(-0.001));
+        core.on_event(t, SessionEvent::End);
+        let b = run(&mut core, &mut t, 50, Some(constant(Vec3::X)), at(0.0));
+        (a, b)
+    };
+    let (a, b) = go();
+    assert_eq!(b, Vec3::ZERO);
+    assert_eq!(go(), (a, b));
+}
