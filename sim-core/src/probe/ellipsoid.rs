@@ -1,0 +1,180 @@
+//! The probe's implicit ellipsoid, its pose, and the analytic ray–ellipsoid root.
+
+use glam::{DMat3, DQuat, DVec3};
+
+use super::{ProbeError, tolerance};
+
+/// Where the probe is: the device's 6-DOF transform in the scene frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbePose {
+    /// Centre of the ellipsoid, m.
+    pub position: DVec3,
+    /// Orientation of the ellipsoid's axes, unit quaternion.
+    pub orientation: DQuat,
+}
+
+impl ProbePose {
+    /// A pose at `position` with the identity orientation.
+    pub fn at(position: DVec3) -> Self {
+        Self {
+            position,
+            orientation: DQuat::IDENTITY,
+        }
+    }
+}
+
+/// Where the normal line of a sample inside the probe leaves it first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayCrossing {
+    /// Distance from the sample to the nearer crossing, m (> 0 for a sample strictly inside).
+    pub depth: f64,
+    /// `+1` if the nearer crossing lies along the sample normal, `−1` if against it.
+    pub exit_sign: f64,
+    /// The crossing point on the probe surface, m.
+    pub point: DVec3,
+    /// Outward unit normal of the probe at the crossing.
+    pub probe_normal: DVec3,
+}
+
+/// An ellipsoid probe `f_p(x) = ‖S⁻¹Rᵀ(x − c)‖² − 1`: negative inside, zero on its surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Probe {
+    semi_axes: DVec3,
+    inv_axes: DVec3,
+    pose: ProbePose,
+    rot: DMat3,
+    rot_t: DMat3,
+}
+
+impl Probe {
+    /// A sphere of `radius` m at the origin.
+    pub fn sphere(radius: f64) -> Result<Self, ProbeError> {
+        Self::ellipsoid(DVec3::splat(radius))
+    }
+
+    /// An ellipsoid with `semi_axes` (m, along its local x, y, z) at the origin.
+    pub fn ellipsoid(semi_axes: DVec3) -> Result<Self, ProbeError> {
+        let mut p = Self {
+            semi_axes: DVec3::ONE,
+            inv_axes: DVec3::ONE,
+            pose: ProbePose::at(DVec3::ZERO),
+            rot: DMat3::IDENTITY,
+            rot_t: DMat3::IDENTITY,
+        };
+        p.set_semi_axes(semi_axes)?;
+        Ok(p)
+    }
+
+    /// Change size and shape at run time; on error the probe is unchanged.
+    pub fn set_semi_axes(&mut self, semi_axes: DVec3) -> Result<(), ProbeError> {
+        let ok = semi_axes.is_finite() && semi_axes.min_element() >= tolerance::MIN_SEMI_AXIS_M;
+        if !ok {
+            return Err(ProbeError::BadSemiAxes(semi_axes.to_array()));
+        }
+        self.semi_axes = semi_axes;
+        self.inv_axes = semi_axes.recip();
+        Ok(())
+    }
+
+    /// Move the probe; the orientation is renormalised. On error the probe is unchanged.
+    pub fn set_pose(&mut self, pose: ProbePose) -> Result<(), ProbeError> {
+        let q = pose.orientation;
+        if !pose.position.is_finite() || !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
+            return Err(ProbeError::BadPose);
+        }
+        let q = q.normalize();
+        self.pose = ProbePose {
+            position: pose.position,
+            orientation: q,
+        };
+        self.rot = DMat3::from_quat(q);
+        self.rot_t = self.rot.transpose();
+        Ok(())
+    }
+
+    /// The probe with a new pose (builder form of [`Probe::set_pose`]).
+    pub fn posed(mut self, pose: ProbePose) -> Result<Self, ProbeError> {
+        self.set_pose(pose)?;
+        Ok(self)
+    }
+
+    /// Semi-axes, m.
+    pub fn semi_axes(&self) -> DVec3 {
+        self.semi_axes
+    }
+
+    /// Current pose.
+    pub fn pose(&self) -> ProbePose {
+        self.pose
+    }
+
+    /// Centre, m.
+    pub fn center(&self) -> DVec3 {
+        self.pose.position
+    }
+
+    #[inline]
+    fn local(&self, x: DVec3) -> DVec3 {
+        self.inv_axes * (self.rot_t * (x - self.pose.position))
+    }
+
+    /// The implicit value `f_p(x)` (dimensionless; negative inside).
+    #[inline]
+    pub fn value(&self, x: DVec3) -> f64 {
+        self.local(x).length_squared() - 1.0
+    }
+
+    /// The gradient of `f_p` at `x`, 1/m (outward).
+    pub fn gradient(&self, x: DVec3) -> DVec3 {
+        2.0 * (self.rot * (self.inv_axes * self.local(x)))
+    }
+
+    /// Axis-aligned bounding box `(min, max)` of the posed ellipsoid (exact).
+    pub fn aabb(&self) -> (DVec3, DVec3) {
+        let cols = [
+            self.rot.x_axis * self.semi_axes.x,
+            self.rot.y_axis * self.semi_axes.y,
+            self.rot.z_axis * self.semi_axes.z,
+        ];
+        let half = (cols[0] * cols[0] + cols[1] * cols[1] + cols[2] * cols[2]).map(f64::sqrt);
+        (self.pose.position - half, self.pose.position + half)
+    }
+
+    /// The nearer crossing of the line `p + t·n` with the probe surface, for `p` strictly inside.
+    ///
+    /// `n` is the sample's unit normal. `None` when `p` is on or outside the probe or an input is
+    /// non-finite. The quadratic `|q + t e|² = 1` (`q`, `e` in the unit-sphere frame) has one
+    /// negative and one positive root when `p` is inside; both are computed without
+    /// cancellation. A tie (centre on the line midpoint) picks the crossing along `+n`.
+    #[inline]
+    pub fn ray_crossing(&self, p: DVec3, n: DVec3) -> Option<RayCrossing> {
+        let q = self.local(p);
+        let c = q.length_squared() - 1.0;
+        if c >= 0.0 || !c.is_finite() {
+            return None;
+        }
+        let e = self.inv_axes * (self.rot_t * n);
+        let a = e.length_squared();
+        let b = q.dot(e);
+        let disc = b * b - a * c;
+        if a <= 0.0 || disc.is_nan() || disc <= 0.0 || !a.is_finite() {
+            return None;
+        }
+        let big = -(b + disc.sqrt().copysign(b));
+        let (r1, r2) = (big / a, c / big);
+        let (t_pos, t_neg) = if r1 > r2 { (r1, r2) } else { (r2, r1) };
+        let (t, exit_sign) = if t_pos <= -t_neg {
+            (t_pos, 1.0)
+        } else {
+            (t_neg, -1.0)
+        };
+        let h = q + t * e;
+        let probe_normal = (self.rot * (self.inv_axes * h)).normalize_or_zero();
+        Some(RayCrossing {
+            depth: t.abs(),
+            exit_sign,
+            point: p + t * n,
+            probe_normal,
+        })
+    }
+}

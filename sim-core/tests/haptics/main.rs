@@ -1,0 +1,5 @@
+//! Haptic rendering tests (issue 6): the shaped probe, the B-spline/mass-spring dual, field
+//! forces with a contact model, and the sculpting reaction. One binary; tolerances are stated
+//! next to each assertion with the reason.
+
+mod probe;
