@@ -199,6 +199,11 @@ impl ScalarGrid {
         &self.values
     }
 
+    /// Mutable node values, for in-crate publishers that keep them finite.
+    pub(crate) fn values_mut(&mut self) -> &mut [f64] {
+        &mut self.values
+    }
+
     /// Value at node `(i, j, k)`. Panics when out of range.
     #[inline]
     pub fn node(&self, i: usize, j: usize, k: usize) -> f64 {

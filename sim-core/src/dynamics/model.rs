@@ -1,0 +1,437 @@
+//! The dynamic volumetric model's state (DESIGN §3, papers' Eq. 6): field values on the nodes of
+//! a narrow band of a regular grid over the sculpting region, each with a displacement
+//! `u = d − d⁰` from its rest value, a velocity `u̇`, an external force and its own mass, damping,
+//! neighbour-spring stiffness and anchor stiffness.
+//!
+//! Contract:
+//! - Only *active* nodes (rest value within `band` of the zero set) carry state; the cost of every
+//!   per-step operation is O(active nodes). Inactive nodes inside the grid are fixed at rest
+//!   (Dirichlet boundary of the band); neighbours outside the grid do not exist (free boundary).
+//! - Forces on node `i`: `f_i − c_i u̇_i − a_i u_i − Σ_j k_ij (u_i − u_j)` over its six axis
+//!   neighbours, `k_ij = (k_i + k_j)/2` (an inactive neighbour has `u_j = 0`), so the rest field is
+//!   an equilibrium and `K` (anchors + springs) is symmetric positive definite when every band
+//!   component touches the fixed boundary or has an anchor.
+//! - The model holds state only; steppers ([`crate::dynamics::Stepper`]) hold scratch.
+//!   [`DynamicGrid::publish`] hands out immutable [`ScalarGrid`] snapshots, recycling buffers
+//!   the readers have dropped (no allocation in steady state).
+
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::dynamics::DynamicsError;
+use crate::grid::{GridSpec, ScalarGrid};
+
+/// Marks a neighbour that is inside the grid but inactive (fixed at rest).
+pub const FIXED: u32 = u32::MAX - 1;
+/// Marks a neighbour outside the grid (no spring).
+pub const ABSENT: u32 = u32::MAX;
+/// `slot_of` entry of an inactive node.
+const INACTIVE: u32 = u32::MAX;
+
+/// Physical parameters of one node (units: value units are metres of signed distance).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct NodeParams {
+    /// Mass `m` (kg), > 0.
+    pub mass: f64,
+    /// Damping `c` (N·s/m), ≥ 0.
+    pub damping: f64,
+    /// Stiffness `k` of the springs to the six neighbours (N/m), ≥ 0.
+    pub stiffness: f64,
+    /// Stiffness `a` of the spring to the node's own rest value (N/m), ≥ 0.
+    pub anchor: f64,
+}
+
+impl Default for NodeParams {
+    /// Light, stiff and near critically damped for the top mode at 1 kHz (see docs/BENCHMARKS.md).
+    fn default() -> Self {
+        Self {
+            mass: 1e-3,
+            damping: 0.5,
+            stiffness: 10.0,
+            anchor: 100.0,
+        }
+    }
+}
+
+impl NodeParams {
+    /// `Ok` when every parameter is finite and in range.
+    pub fn validate(&self) -> Result<(), DynamicsError> {
+        let ok = self.mass.is_finite()
+            && self.mass > 0.0
+            && self.damping.is_finite()
+            && self.damping >= 0.0
+            && self.stiffness.is_finite()
+            && self.stiffness >= 0.0
+            && self.anchor.is_finite()
+            && self.anchor >= 0.0;
+        if ok {
+            Ok(())
+        } else {
+            Err(DynamicsError::Params(*self))
+        }
+    }
+}
+
+/// Per-slot parameter arrays (structure of arrays, indexed like the state).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ParamArrays {
+    pub(crate) mass: Vec<f64>,
+    pub(crate) damping: Vec<f64>,
+    pub(crate) stiffness: Vec<f64>,
+    pub(crate) anchor: Vec<f64>,
+}
+
+/// The simulated field over a sculpting region.
+#[derive(Debug, Clone)]
+pub struct DynamicGrid {
+    spec: GridSpec,
+    band: f64,
+    /// Grid index per slot.
+    active: Vec<u32>,
+    /// Slot per grid index, or `INACTIVE`.
+    slot_of: Vec<u32>,
+    /// Per slot: the six neighbours (−x, +x, −y, +y, −z, +z) as slots, `FIXED` or `ABSENT`.
+    nbr: Vec<[u32; 6]>,
+    /// Rest values `d⁰` on every grid node.
+    rest: Vec<f64>,
+    pub(crate) u: Vec<f64>,
+    pub(crate) v: Vec<f64>,
+    pub(crate) force: Vec<f64>,
+    pub(crate) params: ParamArrays,
+    time: f64,
+    pool: Vec<Arc<ScalarGrid>>,
+}
+
+impl DynamicGrid {
+    /// A model at rest on `rest`, simulating the nodes with `|d⁰| ≤ band` (use `f64::INFINITY`
+    /// for all nodes), every node with `params`.
+    pub fn new(rest: &ScalarGrid, band: f64, params: NodeParams) -> Result<Self, DynamicsError> {
+        params.validate()?;
+        if band.is_nan() || band < 0.0 {
+            return Err(DynamicsError::Band(band));
+        }
+        let spec = *rest.spec();
+        let values = rest.values();
+        let mut slot_of = vec![INACTIVE; values.len()];
+        let mut active = Vec::new();
+        for (g, &d) in values.iter().enumerate() {
+            if d.abs() <= band {
+                slot_of[g] = active.len() as u32;
+                active.push(g as u32);
+            }
+        }
+        if active.is_empty() {
+            return Err(DynamicsError::EmptyBand);
+        }
+        let nbr = active
+            .iter()
+            .map(|&g| neighbours(&spec, &slot_of, g as usize))
+            .collect();
+        let n = active.len();
+        Ok(Self {
+            spec,
+            band,
+            active,
+            slot_of,
+            nbr,
+            rest: values.to_vec(),
+            u: vec![0.0; n],
+            v: vec![0.0; n],
+            force: vec![0.0; n],
+            params: ParamArrays {
+                mass: vec![params.mass; n],
+                damping: vec![params.damping; n],
+                stiffness: vec![params.stiffness; n],
+                anchor: vec![params.anchor; n],
+            },
+            time: 0.0,
+            pool: Vec::new(),
+        })
+    }
+
+    /// The grid geometry.
+    pub fn spec(&self) -> &GridSpec {
+        &self.spec
+    }
+
+    /// The band half-width the active set was chosen with.
+    pub fn band(&self) -> f64 {
+        self.band
+    }
+
+    /// Number of simulated (active) nodes.
+    pub fn active_len(&self) -> usize {
+        self.active.len()
+    }
+
+    /// Grid index of every active slot.
+    pub fn active_nodes(&self) -> &[u32] {
+        &self.active
+    }
+
+    /// The active slot of grid node `g`, if simulated.
+    #[inline]
+    pub fn slot(&self, g: usize) -> Option<usize> {
+        match self.slot_of.get(g) {
+            Some(&s) if s != INACTIVE => Some(s as usize),
+            _ => None,
+        }
+    }
+
+    /// Neighbour table of slot `s` (slots, [`FIXED`] or [`ABSENT`]).
+    #[inline]
+    pub fn neighbours_of(&self, s: usize) -> &[u32; 6] {
+        &self.nbr[s]
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub(crate) fn advance_time(&mut self, dt: f64) {
+        self.time += dt;
+    }
+
+    /// Displacements `u = d − d⁰` per slot.
+    pub fn displacement(&self) -> &[f64] {
+        &self.u
+    }
+
+    /// Velocities `u̇` per slot.
+    pub fn velocity(&self) -> &[f64] {
+        &self.v
+    }
+
+    /// External forces per slot (N), as accumulated since the last [`Self::clear_forces`].
+    pub fn forces(&self) -> &[f64] {
+        &self.force
+    }
+
+    /// Overwrite displacements and velocities (one per slot, finite), e.g. to restore a saved
+    /// state or to start from a perturbation.
+    pub fn set_state(&mut self, u: &[f64], v: &[f64]) -> Result<(), DynamicsError> {
+        let n = self.active.len();
+        if u.len() != n || v.len() != n {
+            return Err(DynamicsError::StateLength { expected: n });
+        }
+        if u.iter().chain(v).any(|x| !x.is_finite()) {
+            return Err(DynamicsError::NonFiniteState);
+        }
+        self.u.copy_from_slice(u);
+        self.v.copy_from_slice(v);
+        Ok(())
+    }
+
+    /// Add `f` to the external force on slot `s`.
+    #[inline]
+    pub fn add_force(&mut self, s: usize, f: f64) {
+        self.force[s] += f;
+    }
+
+    /// Zero every external force (call once per step before tools apply theirs).
+    pub fn clear_forces(&mut self) {
+        self.force.fill(0.0);
+    }
+
+    /// World position of slot `s`'s node.
+    #[inline]
+    pub fn slot_position(&self, s: usize) -> DVec3 {
+        let [i, j, k] = self.spec.coords(self.active[s] as usize);
+        self.spec.node_position(i, j, k)
+    }
+
+    /// Rest value `d⁰` at grid node `g`.
+    #[inline]
+    pub fn rest_value(&self, g: usize) -> f64 {
+        self.rest[g]
+    }
+
+    /// Current value `d = d⁰ + u` at grid node `g`.
+    #[inline]
+    pub fn value(&self, g: usize) -> f64 {
+        match self.slot(g) {
+            Some(s) => self.rest[g] + self.u[s],
+            None => self.rest[g],
+        }
+    }
+
+    /// Parameters of slot `s`.
+    pub fn node_params(&self, s: usize) -> NodeParams {
+        let p = &self.params;
+        NodeParams {
+            mass: p.mass[s],
+            damping: p.damping[s],
+            stiffness: p.stiffness[s],
+            anchor: p.anchor[s],
+        }
+    }
+
+    /// Set the parameters of slot `s`.
+    pub fn set_node_params(&mut self, s: usize, np: NodeParams) -> Result<(), DynamicsError> {
+        np.validate()?;
+        let p = &mut self.params;
+        (p.mass[s], p.damping[s], p.stiffness[s], p.anchor[s]) =
+            (np.mass, np.damping, np.stiffness, np.anchor);
+        Ok(())
+    }
+
+    /// Set the parameters of every active node within `radius` of `center`; returns how many.
+    pub fn set_params_in_ball(
+        &mut self,
+        center: DVec3,
+        radius: f64,
+        np: NodeParams,
+    ) -> Result<usize, DynamicsError> {
+        np.validate()?;
+        let mut n = 0;
+        for s in 0..self.active.len() {
+            if self.slot_position(s).distance_squared(center) <= radius * radius {
+                self.set_node_params(s, np)?;
+                n += 1;
+            }
+        }
+        Ok(n)
+    }
+
+    /// Plastic update at the end of a stroke: the current field becomes the rest field
+    /// (`d⁰ ← d⁰ + u`, `u ← 0`, `u̇ ← 0`).
+    pub fn commit(&mut self) {
+        for (s, &g) in self.active.iter().enumerate() {
+            self.rest[g as usize] += self.u[s];
+        }
+        self.u.fill(0.0);
+        self.v.fill(0.0);
+    }
+
+    /// `K u` at slot `s` for the displacement vector `x` (anchors + neighbour springs).
+    #[inline]
+    pub(crate) fn stiffness_apply(&self, x: &[f64], s: usize) -> f64 {
+        let p = &self.params;
+        let (xs, ks) = (x[s], p.stiffness[s]);
+        let mut acc = p.anchor[s] * xs;
+        for &j in &self.nbr[s] {
+            match j {
+                ABSENT => {}
+                FIXED => acc += ks * xs,
+                j => acc += 0.5 * (ks + p.stiffness[j as usize]) * (xs - x[j as usize]),
+            }
+        }
+        acc
+    }
+
+    /// Diagonal of `K` at slot `s`.
+    #[inline]
+    pub(crate) fn stiffness_diag(&self, s: usize) -> f64 {
+        let p = &self.params;
+        let ks = p.stiffness[s];
+        let mut acc = p.anchor[s];
+        for &j in &self.nbr[s] {
+            match j {
+                ABSENT => {}
+                FIXED => acc += ks,
+                j => acc += 0.5 * (ks + p.stiffness[j as usize]),
+            }
+        }
+        acc
+    }
+
+    /// Acceleration `(f − c u̇ − K u)/m` of every slot for the state `(x, xd)`, into `out`.
+    pub(crate) fn acceleration(&self, x: &[f64], xd: &[f64], out: &mut [f64]) {
+        let p = &self.params;
+        for s in 0..out.len() {
+            let f = self.force[s] - p.damping[s] * xd[s] - self.stiffness_apply(x, s);
+            out[s] = f / p.mass[s];
+        }
+    }
+
+    /// `(K x)_s`: the elastic force of displacement vector `x` at slot `s` (for checks).
+    pub fn stiffness_times(&self, x: &[f64], s: usize) -> f64 {
+        self.stiffness_apply(x, s)
+    }
+
+    /// Current acceleration of every slot, into `out` (one entry per slot).
+    pub fn acceleration_into(&self, out: &mut [f64]) {
+        self.acceleration(&self.u, &self.v, out);
+    }
+
+    /// Mechanical energy `½ u̇ᵀMu̇ + ½ uᵀKu` (J).
+    pub fn energy(&self) -> f64 {
+        let p = &self.params;
+        let kinetic: f64 = (0..self.u.len())
+            .map(|s| 0.5 * p.mass[s] * self.v[s] * self.v[s])
+            .sum();
+        let potential: f64 = (0..self.u.len())
+            .map(|s| 0.5 * self.u[s] * self.stiffness_apply(&self.u, s))
+            .sum();
+        kinetic + potential
+    }
+
+    /// Upper bound (Gershgorin) on the highest natural angular frequency `ω_max = √λ_max(M⁻¹K)`.
+    pub fn omega_max_bound(&self) -> f64 {
+        (0..self.u.len())
+            .map(|s| {
+                let p = &self.params;
+                let off: f64 = self.nbr[s]
+                    .iter()
+                    .filter(|&&j| j != ABSENT && j != FIXED)
+                    .map(|&j| 0.5 * (p.stiffness[s] + p.stiffness[j as usize]))
+                    .sum();
+                ((self.stiffness_diag(s) + off) / p.mass[s]).sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Heap bytes held by the model's state (snapshots in the pool included).
+    pub fn memory_bytes(&self) -> usize {
+        let n = self.active.len();
+        let per_slot = 4 + 24 + 7 * 8;
+        let per_node = 4 + 8;
+        n * per_slot + self.slot_of.len() * per_node + self.pool.len() * self.rest.len() * 8
+    }
+
+    /// An immutable snapshot of the current values `d⁰ + u` on the whole grid, for readers on
+    /// other threads. Reuses a pooled buffer nobody else holds; allocates only when every pooled
+    /// buffer is still held (at most 4 are pooled).
+    pub fn publish(&mut self) -> Arc<ScalarGrid> {
+        let free = self.pool.iter_mut().position(|a| Arc::get_mut(a).is_some());
+        let idx = match free {
+            Some(i) => i,
+            None => {
+                let g = ScalarGrid::from_values(self.spec, self.rest.clone())
+                    .expect("rest values are finite and sized by the spec");
+                if self.pool.len() >= 4 {
+                    self.pool.remove(0);
+                }
+                self.pool.push(Arc::new(g));
+                self.pool.len() - 1
+            }
+        };
+        let grid = Arc::get_mut(&mut self.pool[idx]).expect("checked unique above");
+        let vals = grid.values_mut();
+        for (s, &g) in self.active.iter().enumerate() {
+            vals[g as usize] = self.rest[g as usize] + self.u[s];
+        }
+        Arc::clone(&self.pool[idx])
+    }
+}
+
+fn neighbours(spec: &GridSpec, slot_of: &[u32], g: usize) -> [u32; 6] {
+    let [i, j, k] = spec.coords(g);
+    let c = [i, j, k];
+    let mut out = [ABSENT; 6];
+    for axis in 0..3 {
+        for (side, delta) in [(0usize, -1isize), (1, 1)] {
+            let n = c[axis] as isize + delta;
+            if n < 0 || n as usize >= spec.dims[axis] {
+                continue;
+            }
+            let mut q = c;
+            q[axis] = n as usize;
+            let s = slot_of[spec.index(q[0], q[1], q[2])];
+            out[2 * axis + side] = if s == INACTIVE { FIXED } else { s };
+        }
+    }
+    out
+}

@@ -1,0 +1,5 @@
+//! Integration tests of the dynamic sculpting model (issue 5): integrators and their limits,
+//! rollback, points following the field, tools, CSG, resampling, scenes. One binary.
+
+mod common;
+mod integrators;
