@@ -13,6 +13,7 @@
 
 pub mod accuracy;
 pub mod bspline;
+pub mod bspline_surface;
 pub mod dynamics;
 pub mod field;
 pub mod grid;

@@ -2,4 +2,5 @@
 //! forces with a contact model, and the sculpting reaction. One binary; tolerances are stated
 //! next to each assertion with the reason.
 
+mod bspline;
 mod probe;

@@ -1,0 +1,166 @@
+//! Sculpting the dual with the shaped probe (seed 004 §4.2): touch, or press to push and pull.
+//!
+//! Every haptic tick: the mass points are the probe's samples (seed 004 §4.2.2: no B-spline
+//! evaluation at 1 kHz); with the button up the surface is touched rigidly (the probe force
+//! of [`crate::probe`]); with it down each contact spring pushes its mass point out of the
+//! probe along the point's normal line (`k_s a_i d_i` along the exit direction), the mesh is
+//! integrated, and the user feels the sum of those forces reversed (Newton's third law). The
+//! control net for display is recovered at a lower rate by [`ProbeSculptor::update_display`].
+//! Contacts are recomputed every substep so the stiff tool springs stay stable. No allocation
+//! per tick.
+
+use glam::DVec3;
+
+use super::{BicubicPatch, DualMap, MassSpringMesh, MeshParams, SurfaceError};
+use crate::haptic::{ContactModel, HapticOutput};
+use crate::probe::{ContactParams, Probe, ProbeRenderer, SurfaceSample};
+use protocol::packet::ModelKind;
+
+/// What one sculpting tick produced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SculptTick {
+    /// Force on the user and the local model for the server.
+    pub output: HapticOutput,
+    /// Sum of the forces the tool applied to the mesh during the tick (last substep), N.
+    pub applied: DVec3,
+    /// Mass points in contact (last substep).
+    pub contacts: usize,
+    /// Substeps the mesh took.
+    pub substeps: usize,
+}
+
+/// A B-spline surface with its mass-spring dual, sculpted by a probe.
+#[derive(Debug, Clone)]
+pub struct ProbeSculptor {
+    patch: BicubicPatch,
+    dual: DualMap,
+    mesh: MassSpringMesh,
+    renderer: ProbeRenderer,
+    samples: Vec<SurfaceSample>,
+    external: Vec<DVec3>,
+    validity_radius: f64,
+    lifetime_s: f64,
+}
+
+impl ProbeSculptor {
+    /// Tie `patch` to a mesh of the same size at its mass parameters; `contact` is both the feel
+    /// of touching and the stiffness of the tool springs. Models sent to the server are valid
+    /// within `validity_radius` m for `lifetime_s` s.
+    pub fn new(
+        patch: BicubicPatch,
+        mesh: MeshParams,
+        contact: ContactParams,
+        validity_radius: f64,
+        lifetime_s: f64,
+    ) -> Result<Self, SurfaceError> {
+        let n = patch.n();
+        let mut dual = DualMap::new(n)?;
+        let mut points = vec![DVec3::ZERO; n * n];
+        dual.to_mesh(patch.control(), &mut points);
+        let mesh = MassSpringMesh::new(n, points, mesh)?;
+        let renderer = ProbeRenderer::new(contact, n * n).map_err(|_| SurfaceError::NonFinite)?;
+        let placeholder = SurfaceSample {
+            position: DVec3::ZERO,
+            normal: DVec3::Z,
+            area: 0.0,
+        };
+        Ok(Self {
+            patch,
+            dual,
+            mesh,
+            renderer,
+            samples: vec![placeholder; n * n],
+            external: vec![DVec3::ZERO; n * n],
+            validity_radius,
+            lifetime_s,
+        })
+    }
+
+    /// The mass-spring mesh.
+    pub fn mesh(&self) -> &MassSpringMesh {
+        &self.mesh
+    }
+
+    /// The patch as of the last [`ProbeSculptor::update_display`].
+    pub fn patch(&self) -> &BicubicPatch {
+        &self.patch
+    }
+
+    /// The dual map (`A`, `A⁻¹`).
+    pub fn dual(&mut self) -> &mut DualMap {
+        &mut self.dual
+    }
+
+    /// One haptic tick of `dt` s with the probe at its current pose moving at `velocity`;
+    /// `pressed` is the stylus button (sculpt) state.
+    pub fn tick(
+        &mut self,
+        probe: &Probe,
+        velocity: DVec3,
+        pressed: bool,
+        dt: f64,
+    ) -> Result<SculptTick, SurfaceError> {
+        let cursor = probe.center();
+        if !pressed {
+            self.mesh.samples(&mut self.samples);
+            let f = self.renderer.query_slice(probe, &self.samples, velocity);
+            self.external.fill(DVec3::ZERO);
+            let substeps = self.mesh.step(dt, &self.external)?;
+            let output = f.output(cursor, self.validity_radius, self.lifetime_s);
+            return Ok(SculptTick {
+                output,
+                applied: DVec3::ZERO,
+                contacts: f.contact_count,
+                substeps,
+            });
+        }
+        let substeps = (dt / self.mesh.stable_dt()).ceil().max(1.0) as usize;
+        let h = dt / substeps as f64;
+        let k = self.renderer.params().surface_stiffness;
+        let (mut applied, mut contacts, mut area) = (DVec3::ZERO, 0, 0.0);
+        for _ in 0..substeps {
+            self.mesh.samples(&mut self.samples);
+            let f = self.renderer.query_slice(probe, &self.samples, velocity);
+            self.external.fill(DVec3::ZERO);
+            applied = DVec3::ZERO;
+            for c in self.renderer.contacts() {
+                let push = k * c.area * c.depth * c.exit;
+                self.external[c.sample as usize] = push;
+                applied += push;
+            }
+            contacts = f.contact_count;
+            area = f.contact_area;
+            self.mesh.step(h, &self.external)?;
+        }
+        let force = -applied;
+        let model = match force.try_normalize() {
+            Some(normal) if area > 0.0 => {
+                let stiffness = k * area;
+                ContactModel {
+                    kind: ModelKind::Plane,
+                    point: cursor + normal * (force.length() / stiffness),
+                    normal,
+                    stiffness,
+                    damping: self.renderer.params().surface_damping * area,
+                    friction: 0.0,
+                    validity_radius: self.validity_radius,
+                    lifetime_s: self.lifetime_s,
+                }
+            }
+            _ => ContactModel::none(self.lifetime_s),
+        };
+        Ok(SculptTick {
+            output: HapticOutput { force, model },
+            applied,
+            contacts,
+            substeps,
+        })
+    }
+
+    /// Recover the control net from the mesh (`P = A⁻¹ M A⁻ᵀ`): call at the display rate.
+    pub fn update_display(&mut self) -> &BicubicPatch {
+        self.dual
+            .to_control(self.mesh.positions(), self.patch.control_mut());
+        &self.patch
+    }
+}
