@@ -1,1 +1,402 @@
-//! TODO
+//! The workstation side of a session, over either transport: handshake, control channel and
+//! hot path. The `workstation` crate connects through this; tests drive servers with it.
+//!
+//! ```no_run
+//! # async fn demo(cert: rustls::pki_types::CertificateDer<'static>) -> Result<(), haptics_server::client::ClientError> {
+//! use haptics_server::client::{Client, ClientConfig};
+//! use haptics_server::server::TransportKind;
+//! let cfg = ClientConfig::new("127.0.0.1:7700".parse().unwrap(), TransportKind::Udp, cert);
+//! let mut client = Client::connect(&cfg).await?;
+//! let cursor = client.hot.recv_cursor().await?;        // one CursorSample per servo tick
+//! // … compute a ForceCommand answering `cursor` …
+//! # let cmd: protocol::ForceCommand = todo!();
+//! client.hot.send_force(&cmd)?;                         // never blocks
+//! client.control.close("done").await?;
+//! # Ok(()) }
+//! ```
+//!
+//! [`Client::connect`] sends `Hello`, waits for `Welcome` (or the server's `Error`, e.g.
+//! `Busy`, as [`ClientError::Refused`]), then on UDP sends one zero `ForceCommand` (no model)
+//! so the server learns where to stream. [`HotPath::recv_cursor`] skips (and counts) packets
+//! that fail [`protocol::Inbound`]; [`ControlChannel`] carries everything else.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use glam::Vec3;
+use protocol::control::{Bye, ErrorCode, Hello, Welcome};
+use protocol::packet::MAX_PACKET_BYTES;
+use protocol::{
+    Body, Control, CursorSample, ForceCommand, FrameDecoder, Inbound, LocalModel, Outbound,
+    PROTOCOL_VERSION, Packet, RejectCounts, SessionKey,
+};
+use rustls::pki_types::CertificateDer;
+use tokio::io::{AsyncRead, AsyncWrite};
+
+use crate::clock::MonoClock;
+use crate::server::TransportKind;
+use crate::tls;
+use crate::transport::{TransportError, quic, read_control, write_control};
+
+/// How to reach a server.
+#[derive(Debug, Clone)]
+pub struct ClientConfig {
+    /// Server address (UDP transport: TCP control and UDP hot path share it).
+    pub server: SocketAddr,
+    /// Transport.
+    pub transport: TransportKind,
+    /// The server's certificate, pinned.
+    pub pinned_cert: CertificateDer<'static>,
+    /// Name for the server's logs.
+    pub client_name: String,
+    /// Cursor rate asked for, Hz.
+    pub requested_rate_hz: u32,
+    /// Limit on connect + handshake.
+    pub timeout: Duration,
+    /// QUIC idle timeout (keep-alives at a quarter of it).
+    pub idle_timeout: Duration,
+}
+
+impl ClientConfig {
+    /// Defaults: name `workstation`, 1000 Hz, 5 s handshake timeout, 2 s idle timeout.
+    pub fn new(
+        server: SocketAddr,
+        transport: TransportKind,
+        pinned_cert: CertificateDer<'static>,
+    ) -> Self {
+        Self {
+            server,
+            transport,
+            pinned_cert,
+            client_name: "workstation".into(),
+            requested_rate_hz: 1000,
+            timeout: Duration::from_secs(5),
+            idle_timeout: Duration::from_secs(2),
+        }
+    }
+}
+
+/// Why a client operation failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ClientError {
+    /// Socket I/O.
+    #[error("I/O: {0}")]
+    Io(#[from] std::io::Error),
+    /// TLS setup.
+    #[error(transparent)]
+    Tls(#[from] tls::TlsError),
+    /// Control-channel protocol error.
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// QUIC connect or connection error.
+    #[error("QUIC: {0}")]
+    Quic(String),
+    /// The server refused (e.g. `Busy`: another workstation holds the session).
+    #[error("server refused the session ({code:?}): {message}")]
+    Refused {
+        /// Machine-readable cause.
+        code: ErrorCode,
+        /// The server's explanation.
+        message: String,
+    },
+    /// The server said something unexpected.
+    #[error("protocol: {0}")]
+    Protocol(String),
+    /// The handshake took too long.
+    #[error("timed out: {0}")]
+    Timeout(&'static str),
+    /// The control channel or connection is closed.
+    #[error("connection closed")]
+    Closed,
+}
+
+type Reader = Box<dyn AsyncRead + Send + Unpin>;
+type Writer = Box<dyn AsyncWrite + Send + Unpin>;
+
+/// A connected session.
+#[derive(Debug)]
+pub struct Client {
+    /// The server's `Welcome` (device limits, session id).
+    pub welcome: Welcome,
+    /// Control messages (clock pings, config, stats, bye).
+    pub control: ControlChannel,
+    /// Cursor samples in, force commands out.
+    pub hot: HotPath,
+}
+
+/// The reliable control channel of a session.
+pub struct ControlChannel {
+    rd: Reader,
+    wr: Writer,
+    dec: FrameDecoder,
+    conn: Option<quinn::Connection>,
+}
+
+impl std::fmt::Debug for ControlChannel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ControlChannel")
+            .field("quic", &self.conn.is_some())
+            .finish()
+    }
+}
+
+impl ControlChannel {
+    /// Send one message.
+    pub async fn send(&mut self, msg: &Control) -> Result<(), ClientError> {
+        Ok(write_control(&mut self.wr, msg).await?)
+    }
+
+    /// The next message; [`ClientError::Closed`] when the server closed the channel.
+    pub async fn recv(&mut self) -> Result<Control, ClientError> {
+        read_control(&mut self.rd, &mut self.dec)
+            .await?
+            .ok_or(ClientError::Closed)
+    }
+
+    /// Send raw bytes (tests: malformed frames).
+    pub async fn send_raw(&mut self, bytes: &[u8]) -> Result<(), ClientError> {
+        tokio::io::AsyncWriteExt::write_all(&mut self.wr, bytes).await?;
+        Ok(tokio::io::AsyncWriteExt::flush(&mut self.wr).await?)
+    }
+
+    /// Say `Bye` and close.
+    pub async fn close(mut self, reason: &str) -> Result<(), ClientError> {
+        self.send(&Control::Bye(Bye {
+            reason: reason.into(),
+        }))
+        .await?;
+        let _ = tokio::io::AsyncWriteExt::shutdown(&mut self.wr).await;
+        if let Some(c) = &self.conn {
+            // Give the Bye a moment to leave before the connection goes.
+            let _ = tokio::time::timeout(Duration::from_millis(200), c.closed()).await;
+        }
+        Ok(())
+    }
+}
+
+enum HotSocket {
+    Udp(tokio::net::UdpSocket),
+    // The endpoint is held so its socket lives as long as the connection.
+    Quic(quinn::Connection, #[allow(dead_code)] quinn::Endpoint),
+}
+
+/// The hot path of a session.
+pub struct HotPath {
+    socket: HotSocket,
+    outbound: Outbound,
+    inbound: Inbound,
+    key: Option<SessionKey>,
+    clock: MonoClock,
+    buf: [u8; MAX_PACKET_BYTES],
+    streaming: bool,
+}
+
+impl std::fmt::Debug for HotPath {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HotPath")
+            .field("session", &self.inbound.session())
+            .finish()
+    }
+}
+
+impl HotPath {
+    /// The next authentic cursor packet (rejected ones are counted in [`HotPath::rejects`]).
+    pub async fn recv_cursor(&mut self) -> Result<(Packet, CursorSample), ClientError> {
+        let mut buf = [0u8; MAX_PACKET_BYTES + 1];
+        loop {
+            let bytes: &[u8] = match &self.socket {
+                HotSocket::Udp(s) => {
+                    // Until the first cursor arrives, re-send the opener every 100 ms: the
+                    // server learns our address from it, and UDP may lose it.
+                    let n = if self.streaming {
+                        s.recv(&mut buf).await?
+                    } else {
+                        match tokio::time::timeout(Duration::from_millis(100), s.recv(&mut buf))
+                            .await
+                        {
+                            Ok(n) => n?,
+                            Err(_) => {
+                                self.send_force(&zero_command())?;
+                                continue;
+                            }
+                        }
+                    };
+                    &buf[..n]
+                }
+                HotSocket::Quic(c, _) => {
+                    let d = c.read_datagram().await.map_err(|_| ClientError::Closed)?;
+                    let n = d.len().min(buf.len());
+                    buf[..n].copy_from_slice(&d[..n]);
+                    &buf[..n]
+                }
+            };
+            if let Ok(p) = self.inbound.accept(bytes)
+                && let Body::Cursor(c) = p.body
+            {
+                self.streaming = true;
+                return Ok((p, c));
+            }
+        }
+    }
+
+    /// Send a force command now (non-blocking; dropped if the socket buffer is full).
+    pub fn send_force(&mut self, cmd: &ForceCommand) -> Result<(), ClientError> {
+        let len = self
+            .outbound
+            .encode(self.clock.now_ns(), Body::Force(*cmd), &mut self.buf);
+        let bytes = self.buf;
+        self.send_raw(&bytes[..len])
+    }
+
+    /// Send arbitrary bytes on the hot path (tests: forged and malformed packets).
+    pub fn send_raw(&self, bytes: &[u8]) -> Result<(), ClientError> {
+        match &self.socket {
+            HotSocket::Udp(s) => match s.try_send(bytes) {
+                Ok(_) => Ok(()),
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
+                Err(e) => Err(e.into()),
+            },
+            HotSocket::Quic(c, _) => c
+                .send_datagram(bytes::Bytes::copy_from_slice(bytes))
+                .map_err(|e| ClientError::Quic(e.to_string())),
+        }
+    }
+
+    /// Rejected incoming packets by reason.
+    pub fn rejects(&self) -> &RejectCounts {
+        self.inbound.rejects()
+    }
+
+    /// The session's MAC key (UDP only).
+    pub fn session_key(&self) -> Option<&SessionKey> {
+        self.key.as_ref()
+    }
+
+    /// The sequence number the next force command will carry.
+    pub fn next_sequence(&self) -> u32 {
+        self.outbound.next_sequence()
+    }
+}
+
+/// A force command with no model and zero force (the UDP stream opener).
+pub fn zero_command() -> ForceCommand {
+    ForceCommand {
+        force: Vec3::ZERO,
+        torque: None,
+        answers_sequence: 0,
+        answers_timestamp_ns: 0,
+        model: LocalModel::default(),
+    }
+}
+
+impl Client {
+    /// Connect, handshake and open the hot path; see the module doc.
+    pub async fn connect(cfg: &ClientConfig) -> Result<Client, ClientError> {
+        tokio::time::timeout(cfg.timeout, Self::connect_inner(cfg))
+            .await
+            .map_err(|_| ClientError::Timeout("connect and handshake"))?
+    }
+
+    async fn connect_inner(cfg: &ClientConfig) -> Result<Client, ClientError> {
+        let tls_cfg = tls::client_config(cfg.pinned_cert.clone())?;
+        let (rd, wr, conn): (Reader, Writer, Option<(quinn::Connection, quinn::Endpoint)>) =
+            match cfg.transport {
+                TransportKind::Udp => {
+                    let tcp = tokio::net::TcpStream::connect(cfg.server).await?;
+                    tcp.set_nodelay(true)?;
+                    let connector = tokio_rustls::TlsConnector::from(Arc::new(tls_cfg));
+                    let stream = connector.connect(tls::server_name(), tcp).await?;
+                    let (rd, wr) = tokio::io::split(stream);
+                    (Box::new(rd), Box::new(wr), None)
+                }
+                TransportKind::Quic => {
+                    let crypto = quinn::crypto::rustls::QuicClientConfig::try_from(tls_cfg)
+                        .map_err(|e| ClientError::Quic(e.to_string()))?;
+                    let mut qc = quinn::ClientConfig::new(Arc::new(crypto));
+                    qc.transport_config(Arc::new(quic::transport_config(cfg.idle_timeout)));
+                    let bind: SocketAddr = if cfg.server.is_ipv4() {
+                        ([0, 0, 0, 0], 0).into()
+                    } else {
+                        (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
+                    };
+                    let mut endpoint = quinn::Endpoint::client(bind)?;
+                    endpoint.set_default_client_config(qc);
+                    let conn = endpoint
+                        .connect(cfg.server, tls::SERVER_NAME)
+                        .map_err(|e| ClientError::Quic(e.to_string()))?
+                        .await
+                        .map_err(|e| ClientError::Quic(e.to_string()))?;
+                    let (wr, rd) = conn
+                        .open_bi()
+                        .await
+                        .map_err(|e| ClientError::Quic(e.to_string()))?;
+                    (Box::new(rd), Box::new(wr), Some((conn, endpoint)))
+                }
+            };
+        let mut control = ControlChannel {
+            rd,
+            wr,
+            dec: FrameDecoder::new(),
+            conn: conn.as_ref().map(|(c, _)| c.clone()),
+        };
+        control
+            .send(&Control::Hello(Hello {
+                protocol_version: PROTOCOL_VERSION,
+                client_name: cfg.client_name.clone(),
+                requested_rate_hz: cfg.requested_rate_hz,
+            }))
+            .await?;
+        let welcome = match control.recv().await? {
+            Control::Welcome(w) => w,
+            Control::Error(e) => {
+                if let Some((c, _)) = &conn {
+                    c.close(0u8.into(), b"refused");
+                }
+                return Err(ClientError::Refused {
+                    code: e.code,
+                    message: e.message,
+                });
+            }
+            other => {
+                return Err(ClientError::Protocol(format!(
+                    "expected Welcome, got {other:?}"
+                )));
+            }
+        };
+        let (socket, key) = match conn {
+            None => {
+                let bind: SocketAddr = if cfg.server.is_ipv4() {
+                    ([0, 0, 0, 0], 0).into()
+                } else {
+                    (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
+                };
+                let s = tokio::net::UdpSocket::bind(bind).await?;
+                s.connect(cfg.server).await?;
+                (
+                    HotSocket::Udp(s),
+                    Some(SessionKey::from_bytes(welcome.session_key)),
+                )
+            }
+            Some((c, e)) => (HotSocket::Quic(c, e), None),
+        };
+        let mut hot = HotPath {
+            socket,
+            outbound: Outbound::new(welcome.session_id, key.clone()),
+            inbound: Inbound::new(welcome.session_id, key.clone()),
+            key,
+            clock: MonoClock::new(),
+            buf: [0; MAX_PACKET_BYTES],
+            streaming: false,
+        };
+        if cfg.transport == TransportKind::Udp {
+            hot.send_force(&zero_command())?;
+        }
+        Ok(Client {
+            welcome,
+            control,
+            hot,
+        })
+    }
+}

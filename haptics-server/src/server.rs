@@ -1,1 +1,274 @@
-//! TODO
+//! A running server: a device, the servo and telemetry threads, and one transport on a tokio
+//! runtime of its own. [`Server::start`] works the same from `main` and from tests (which use
+//! [`ServerOptions::for_tests`]: loopback, port 0, a fresh certificate, no real-time requests).
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use protocol::control::Stats;
+use rustls::pki_types::CertificateDer;
+use tokio::sync::watch;
+
+use crate::clock::MonoClock;
+use crate::device::Device;
+use crate::servo::driver::{self, CursorSink, DriverConfig, ServoThreads};
+use crate::servo::rt::RtRequest;
+use crate::servo::{SafetyParams, ServoParams};
+use crate::telemetry::ServoStats;
+use crate::tls::{self, Identity};
+use crate::transport::{NetSettings, Shared, quic, udp};
+
+/// Which transport serves the workstation.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum TransportKind {
+    /// TLS-over-TCP control + MAC'd UDP datagrams.
+    Udp,
+    /// QUIC: one bidi stream for control, unreliable datagrams for the hot path.
+    Quic,
+}
+
+/// Everything [`Server::start`] needs besides the device.
+#[derive(Debug, Clone)]
+pub struct ServerOptions {
+    /// Transport.
+    pub transport: TransportKind,
+    /// Listen address (UDP: TCP and UDP on the same port).
+    pub listen: SocketAddr,
+    /// The certificate the workstation pins.
+    pub identity: Identity,
+    /// Servo loop settings (device limits are applied on top by `start`).
+    pub driver: DriverConfig,
+    /// Network timeouts.
+    pub net: NetSettings,
+}
+
+impl ServerOptions {
+    /// Loopback on a free port, a fresh certificate, no real-time requests, no log summaries.
+    pub fn for_tests(transport: TransportKind) -> Result<Self, ServerError> {
+        Ok(Self {
+            transport,
+            listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+            identity: tls::generate()?,
+            driver: DriverConfig {
+                params: ServoParams {
+                    rate_hz: 1000,
+                    safety: SafetyParams::default(),
+                    smoothing_alpha: 0.0,
+                    device_max_force_n: f32::INFINITY,
+                    max_stiffness_n_per_m: f32::INFINITY,
+                    estop_button_mask: 0,
+                },
+                rt: RtRequest {
+                    fifo_priority: None,
+                    cpu: None,
+                    mlockall: false,
+                },
+                spin: Duration::from_micros(50),
+                log_every: Duration::ZERO,
+                record: None,
+            },
+            net: NetSettings::default(),
+        })
+    }
+}
+
+/// Why the server could not start.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ServerError {
+    /// Binding sockets or spawning threads failed.
+    #[error("I/O: {0}")]
+    Io(#[from] std::io::Error),
+    /// Certificate or TLS configuration.
+    #[error(transparent)]
+    Tls(#[from] tls::TlsError),
+    /// Transport setup.
+    #[error(transparent)]
+    Transport(#[from] crate::transport::TransportError),
+}
+
+/// A running server; dropping it shuts it down (force to zero first).
+#[derive(Debug)]
+pub struct Server {
+    local_addr: SocketAddr,
+    cert: CertificateDer<'static>,
+    shared: Arc<Shared>,
+    shutdown: watch::Sender<bool>,
+    runtime: Option<std::thread::JoinHandle<()>>,
+    servo: ServoThreads,
+    sender_stop: Arc<AtomicBool>,
+    sender: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Server {
+    /// Start serving `device`.
+    pub fn start<D: Device + 'static>(
+        device: D,
+        opts: ServerOptions,
+    ) -> Result<Server, ServerError> {
+        let info = device.info().clone();
+        let mut driver_cfg = opts.driver.clone();
+        let p = &mut driver_cfg.params;
+        let device_limit = if info.dof_output == 0 {
+            0.0
+        } else {
+            info.max_force_n
+        };
+        p.device_max_force_n = p.device_max_force_n.min(device_limit);
+        p.safety.max_force_n = p.safety.max_force_n.min(p.device_max_force_n);
+        p.max_stiffness_n_per_m = p.max_stiffness_n_per_m.min(info.max_stiffness_n_per_m);
+        let params = *p;
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .thread_name("network")
+            .enable_all()
+            .build()?;
+        let tls_cfg = tls::server_config(&opts.identity)?;
+        let clock = MonoClock::new();
+        let (shutdown, shutdown_rx) = watch::channel(false);
+        let sender_stop = Arc::new(AtomicBool::new(false));
+        let (local_addr, shared, servo, sender) = match opts.transport {
+            TransportKind::Udp => {
+                let (tcp, sock) = udp::bind(opts.listen)?;
+                let local_addr = tcp.local_addr()?;
+                let sink = CursorSink::Udp(sock.try_clone()?);
+                let (link, servo) = driver::spawn(device, sink, driver_cfg, clock)?;
+                let shared = Arc::new(Shared::new(
+                    clock,
+                    link,
+                    info,
+                    params.rate_hz,
+                    params.safety.max_force_n,
+                    opts.net,
+                ));
+                let _guard = runtime.enter();
+                runtime.spawn(udp::run(
+                    Arc::clone(&shared),
+                    tcp,
+                    sock,
+                    tls_cfg,
+                    shutdown_rx,
+                ));
+                (local_addr, shared, servo, None)
+            }
+            TransportKind::Quic => {
+                let endpoint = {
+                    let _guard = runtime.enter();
+                    quic::endpoint(opts.listen, tls_cfg, opts.net.idle_timeout)?
+                };
+                let local_addr = endpoint.local_addr()?;
+                let current: quic::Current = Arc::default();
+                let (tx, rx) = rtrb::RingBuffer::new(64);
+                let sender = {
+                    let (current, stop) = (Arc::clone(&current), Arc::clone(&sender_stop));
+                    std::thread::Builder::new()
+                        .name("quic-sender".into())
+                        .spawn(move || quic::sender(rx, current, stop))?
+                };
+                let sink = CursorSink::Ring(tx, sender.thread().clone());
+                let (link, servo) = driver::spawn(device, sink, driver_cfg, clock)?;
+                let shared = Arc::new(Shared::new(
+                    clock,
+                    link,
+                    info,
+                    params.rate_hz,
+                    params.safety.max_force_n,
+                    opts.net,
+                ));
+                runtime.spawn(quic::run(
+                    Arc::clone(&shared),
+                    endpoint,
+                    current,
+                    shutdown_rx,
+                ));
+                (local_addr, shared, servo, Some(sender))
+            }
+        };
+        // The runtime lives on a thread of its own, so a server can be dropped anywhere
+        // (including inside another runtime, as in async tests).
+        let mut wait = shutdown.subscribe();
+        let runtime = std::thread::Builder::new()
+            .name("network-rt".into())
+            .spawn(move || {
+                runtime.block_on(async move {
+                    let _ = wait.wait_for(|s| *s).await;
+                });
+                runtime.shutdown_timeout(Duration::from_secs(1));
+            })?;
+        Ok(Server {
+            local_addr,
+            cert: opts.identity.cert.clone(),
+            shared,
+            shutdown,
+            runtime: Some(runtime),
+            servo,
+            sender_stop,
+            sender,
+        })
+    }
+
+    /// The bound address (UDP transport: TCP control and UDP hot path share it).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local_addr
+    }
+
+    /// The certificate clients must pin.
+    pub fn certificate(&self) -> CertificateDer<'static> {
+        self.cert.clone()
+    }
+
+    /// `Stats` of the active session, or of the last one.
+    pub fn stats(&self) -> Stats {
+        let hot = self.shared.active();
+        self.shared.stats(hot.as_deref())
+    }
+
+    /// The servo thread's telemetry snapshot.
+    pub fn servo_stats(&self) -> ServoStats {
+        self.shared.servo_stats()
+    }
+
+    /// Id of the active session.
+    pub fn active_session(&self) -> Option<u32> {
+        self.shared.active().map(|h| h.session)
+    }
+
+    /// Sessions started since the server started.
+    pub fn sessions_started(&self) -> u64 {
+        self.shared.sessions_started.load(Ordering::Relaxed)
+    }
+
+    /// Clients refused as busy.
+    pub fn refused_busy(&self) -> u64 {
+        self.shared.refused_busy.load(Ordering::Relaxed)
+    }
+
+    /// Stop: network first, then the servo loop (device left at zero force).
+    pub fn shutdown(mut self) {
+        self.stop();
+    }
+
+    fn stop(&mut self) {
+        let _ = self.shutdown.send(true);
+        if let Some(rt) = self.runtime.take() {
+            let _ = rt.join();
+        }
+        self.servo.stop();
+        self.sender_stop.store(true, Ordering::Release);
+        if let Some(h) = self.sender.take() {
+            h.thread().unpark();
+            let _ = h.join();
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}

@@ -1,0 +1,147 @@
+//! The QUIC transport (quinn): unreliable datagrams for cursor/force, one bidirectional
+//! stream (opened by the client) for control.
+//!
+//! Tuned for latency: datagram send and receive buffers hold only a few packets, so when the
+//! path stalls stale samples are dropped, not queued. Cursor packets reach quinn through a
+//! sender thread that the servo thread unparks after pushing to a wait-free ring; quinn's
+//! `send_datagram` (which locks the connection) never runs on the servo thread.
+
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use quinn::crypto::rustls::QuicServerConfig;
+use tokio::sync::watch;
+
+use super::{HotKind, Shared, TransportError, serve_control};
+use crate::servo::driver::Datagram;
+
+/// Datagram buffer, bytes: a handful of packets, so stale data is dropped, not queued.
+pub const DATAGRAM_BUFFER_BYTES: usize = 8 * 128;
+
+/// Transport settings shared by server and client.
+pub fn transport_config(idle: Duration) -> quinn::TransportConfig {
+    let mut t = quinn::TransportConfig::default();
+    t.max_idle_timeout(idle.try_into().ok());
+    t.keep_alive_interval(Some(idle / 4));
+    t.datagram_receive_buffer_size(Some(DATAGRAM_BUFFER_BYTES));
+    t.datagram_send_buffer_size(DATAGRAM_BUFFER_BYTES);
+    t.max_concurrent_uni_streams(0u8.into());
+    t.max_concurrent_bidi_streams(1u8.into());
+    t
+}
+
+/// A QUIC server endpoint on `listen`.
+pub fn endpoint(
+    listen: SocketAddr,
+    tls: rustls::ServerConfig,
+    idle: Duration,
+) -> Result<quinn::Endpoint, TransportError> {
+    let crypto =
+        QuicServerConfig::try_from(tls).map_err(|e| TransportError::Quic(e.to_string()))?;
+    let mut cfg = quinn::ServerConfig::with_crypto(Arc::new(crypto));
+    cfg.transport_config(Arc::new(transport_config(idle)));
+    Ok(quinn::Endpoint::server(cfg, listen)?)
+}
+
+/// The connection cursor packets currently go to.
+pub type Current = Arc<Mutex<Option<quinn::Connection>>>;
+
+/// The sender thread: drains the servo's cursor ring into the current connection.
+pub fn sender(mut rx: rtrb::Consumer<Datagram>, current: Current, stop: Arc<AtomicBool>) {
+    while !stop.load(Ordering::Acquire) {
+        std::thread::park_timeout(Duration::from_millis(50));
+        while let Ok(d) = rx.pop() {
+            let conn = current.lock().ok().and_then(|c| c.clone());
+            if let Some(conn) = conn {
+                // Fails only when the peer disabled datagrams or the connection is gone.
+                let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(&d.bytes[..d.len]));
+            }
+        }
+    }
+}
+
+/// Serve until `shutdown` turns true.
+pub async fn run(
+    shared: Arc<Shared>,
+    endpoint: quinn::Endpoint,
+    current: Current,
+    mut shutdown: watch::Receiver<bool>,
+) {
+    loop {
+        let incoming = tokio::select! {
+            i = endpoint.accept() => match i {
+                Some(i) => i,
+                None => break,
+            },
+            _ = shutdown.wait_for(|s| *s) => break,
+        };
+        let (shared, current, mut shutdown) =
+            (Arc::clone(&shared), Arc::clone(&current), shutdown.clone());
+        tokio::spawn(async move {
+            tokio::select! {
+                r = connection(&shared, incoming, &current) => if let Err(e) = r {
+                    tracing::warn!("QUIC connection: {e}");
+                },
+                _ = shutdown.wait_for(|s| *s) => {}
+            }
+        });
+    }
+    endpoint.close(0u8.into(), b"server shutting down");
+}
+
+async fn connection(
+    shared: &Arc<Shared>,
+    incoming: quinn::Incoming,
+    current: &Current,
+) -> Result<(), TransportError> {
+    let conn = tokio::time::timeout(shared.net.hello_timeout, incoming)
+        .await
+        .map_err(|_| TransportError::Timeout("QUIC handshake"))?
+        .map_err(|e| TransportError::Quic(e.to_string()))?;
+    let from = conn.remote_address();
+    let (mut wr, mut rd) = tokio::time::timeout(shared.net.hello_timeout, conn.accept_bi())
+        .await
+        .map_err(|_| TransportError::Timeout("control stream"))?
+        .map_err(|e| TransportError::Quic(e.to_string()))?;
+    let reader = {
+        let (conn, current, shared) = (conn.clone(), Arc::clone(current), Arc::clone(shared));
+        move |hot: Arc<super::HotState>| {
+            if let Ok(mut c) = current.lock() {
+                *c = Some(conn.clone());
+            }
+            tracing::info!(%from, "hot path: QUIC datagrams");
+            tokio::spawn(async move {
+                while let Ok(d) = conn.read_datagram().await {
+                    if hot.ended() {
+                        break;
+                    }
+                    shared.accept_hot(&hot, &d);
+                }
+            });
+        }
+    };
+    let result = serve_control(shared, &mut rd, &mut wr, HotKind::Quic, reader).await;
+    if let Ok(mut c) = current.lock()
+        && c.as_ref()
+            .is_some_and(|c| c.stable_id() == conn.stable_id())
+    {
+        *c = None;
+    }
+    let started = matches!(result, Ok(Some(_)));
+    let _ = wr.finish();
+    if !started {
+        // Refused (busy, version): let the client read the error before closing.
+        let _ = tokio::time::timeout(Duration::from_secs(1), conn.closed()).await;
+    }
+    conn.close(
+        0u8.into(),
+        if started {
+            b"session ended"
+        } else {
+            b"refused"
+        },
+    );
+    result.map(|_| ())
+}

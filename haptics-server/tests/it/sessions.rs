@@ -1,0 +1,74 @@
+//! One session at a time; a vanished or restarted workstation is survived.
+
+use std::time::Duration;
+
+use glam::Vec3;
+use haptics_server::client::{Client, ClientError};
+use haptics_server::server::TransportKind;
+use protocol::control::ErrorCode;
+
+use crate::common::{config, connect, constant, eventually, server, stream};
+
+async fn second_client_is_refused_then_restart_survived(kind: TransportKind) {
+    let (server, monitor) = server(kind, Duration::from_millis(400));
+    let mut a = connect(&server, kind).await;
+    stream(&mut a, 50, |_| constant(Vec3::ZERO, (0, 0))).await;
+    match Client::connect(&config(&server, kind)).await {
+        Err(ClientError::Refused {
+            code: ErrorCode::Busy,
+            message,
+        }) => assert!(message.contains("busy"), "{message}"),
+        other => panic!("expected Busy, got {other:?}"),
+    }
+    assert_eq!(server.refused_busy(), 1);
+    stream(&mut a, 50, |_| constant(Vec3::ZERO, (0, 0))).await;
+
+    // The workstation crashes (sockets dropped without Bye): a new one connects.
+    drop(a);
+    eventually("crashed session dropped", || {
+        server.active_session().is_none()
+    })
+    .await;
+    let mut b = connect(&server, kind).await;
+    let f = Vec3::new(0.0, 0.2, 0.0);
+    stream(&mut b, 400, |_| constant(f, (0, 0))).await;
+    eventually("force from the new session", || {
+        (monitor.last_force() - f).length() < 1e-5
+    })
+    .await;
+
+    // The workstation hangs (control open, hot path silent): the watchdog fades the force,
+    // the idle timeout ends the session, and a third client gets in.
+    let hung = b;
+    eventually("watchdog fades to zero", || {
+        monitor.last_force() == Vec3::ZERO
+    })
+    .await;
+    eventually("idle session dropped", || server.active_session().is_none()).await;
+    let mut c = connect(&server, kind).await;
+    stream(&mut c, 20, |_| constant(Vec3::ZERO, (0, 0))).await;
+    assert_eq!(server.sessions_started(), 3);
+    assert!(server.servo_stats().watchdog_fades >= 1);
+    drop(hung);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn udp_one_session_at_a_time_and_restart() {
+    second_client_is_refused_then_restart_survived(TransportKind::Udp).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn quic_one_session_at_a_time_and_restart() {
+    second_client_is_refused_then_restart_survived(TransportKind::Quic).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_wrong_pinned_certificate_is_refused() {
+    for kind in [TransportKind::Udp, TransportKind::Quic] {
+        let (server, _m) = server(kind, Duration::from_secs(5));
+        let mut cfg = config(&server, kind);
+        cfg.pinned_cert = haptics_server::tls::generate().unwrap().cert;
+        assert!(Client::connect(&cfg).await.is_err(), "{kind:?}");
+        assert_eq!(server.sessions_started(), 0);
+    }
+}
