@@ -16,6 +16,7 @@ pub mod bspline;
 pub mod bspline_surface;
 pub mod dynamics;
 pub mod field;
+pub mod follow;
 pub mod grid;
 pub mod haptic;
 pub mod io;
@@ -29,7 +30,9 @@ pub mod probe;
 pub mod projection;
 pub mod reconstruct;
 pub mod sampling;
+pub mod scene;
 pub mod spatial;
+pub mod tools;
 
 pub use field::{FieldError, GlobalField, NoProgress, Progress};
 pub use local_fit::FitParams;

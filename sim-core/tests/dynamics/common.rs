@@ -31,3 +31,28 @@ pub fn perturb(model: &mut DynamicGrid, amp: f64) {
         .collect();
     model.set_state(&u, &vec![0.0; n]).unwrap();
 }
+
+/// A fitted analytic shape as a scene object (seeded samples with exact normals).
+pub fn fitted_object(
+    shape: sim_core::sampling::Shape,
+    n: usize,
+    seed: u64,
+) -> sim_core::scene::SceneObject {
+    use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
+    let ps = shape.sample(n, seed);
+    let rec = reconstruct(
+        &ps,
+        &sim_core::FitParams::default(),
+        NormalPolicy::Keep,
+        &mut IgnoreStages,
+        &sim_core::NoProgress,
+    )
+    .unwrap();
+    sim_core::scene::SceneObject {
+        name: "shape".into(),
+        colors: vec![[200, 200, 200]; ps.positions.len()],
+        positions: ps.positions,
+        normals: rec.normals,
+        field: rec.field,
+    }
+}

@@ -1,0 +1,272 @@
+//! Scenes: many objects, one sculpting region (DESIGN §3, "model only what a scene needs").
+//!
+//! Contract: only the object being sculpted, and only inside its region box, is simulated: the
+//! region's [`DynamicGrid`] covers the box, its band covers the surface, and per-step work is
+//! O(band nodes + object points inside the box). Static objects keep their fitted fields and are
+//! never touched; points of the sculpted object outside the box stay bit-for-bit unchanged.
+//! [`Scene::step`] either completes or leaves the model unchanged (rollback, see
+//! [`crate::dynamics::Stepper`]); it allocates nothing after warm-up.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::dynamics::{
+    DynamicGrid, DynamicsError, Integrator, NodeParams, StepError, StepReport, Stepper,
+};
+use crate::field::GlobalField;
+use crate::follow::{FollowOptions, FollowReport, follow, refit_moved};
+use crate::grid::{GridError, GridSpec, ScalarGrid};
+use crate::tools::{Rope, ToolError};
+
+/// One object: its points (positions, unit normals, colours) and its implicit field.
+#[derive(Debug, Clone)]
+pub struct SceneObject {
+    /// Name for scripts and reports.
+    pub name: String,
+    /// Positions (m).
+    pub positions: Vec<DVec3>,
+    /// Outward unit normals.
+    pub normals: Vec<DVec3>,
+    /// sRGB colours.
+    pub colors: Vec<[u8; 3]>,
+    /// The fitted field (updated by refits at the end of strokes).
+    pub field: GlobalField,
+}
+
+/// How a sculpting region is simulated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RegionParams {
+    /// Grid spacing (m).
+    pub spacing: f64,
+    /// Band half-width around the surface (m): nodes with `|d⁰| ≤ band` are simulated.
+    pub band: f64,
+    /// Initial parameters of every node.
+    pub node: NodeParams,
+    /// Time integrator.
+    pub integrator: Integrator,
+    /// Refit moved points' local fields every step (`false`: only at [`Scene::end_stroke`]).
+    pub refit_every_step: bool,
+}
+
+/// Why a scene operation failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SceneError {
+    /// No object has this index.
+    #[error("no object {0}")]
+    NoObject(usize),
+    /// No sculpting region is open.
+    #[error("no sculpting region is open")]
+    NoRegion,
+    /// The region box or spacing is invalid.
+    #[error(transparent)]
+    Grid(#[from] GridError),
+    /// The model could not be built.
+    #[error(transparent)]
+    Dynamics(#[from] DynamicsError),
+    /// A tool was invalid.
+    #[error(transparent)]
+    Tool(#[from] ToolError),
+    /// The step was refused and rolled back.
+    #[error(transparent)]
+    Step(#[from] StepError),
+}
+
+/// The simulated part of a scene.
+#[derive(Debug, Clone)]
+pub struct Region {
+    object: usize,
+    model: DynamicGrid,
+    stepper: Stepper,
+    base: GlobalField,
+    inside: Vec<u32>,
+    moved: Vec<u32>,
+    is_moved: Vec<bool>,
+    samples: Vec<f64>,
+    params: RegionParams,
+}
+
+impl Region {
+    /// The dynamic model.
+    pub fn model(&self) -> &DynamicGrid {
+        &self.model
+    }
+
+    /// The dynamic model, for editing node parameters or adding forces directly.
+    pub fn model_mut(&mut self) -> &mut DynamicGrid {
+        &mut self.model
+    }
+
+    /// Index of the sculpted object.
+    pub fn object(&self) -> usize {
+        self.object
+    }
+
+    /// Points of the object inside the region box.
+    pub fn points_inside(&self) -> &[u32] {
+        &self.inside
+    }
+
+    /// Heap bytes of the simulation state (model + region bookkeeping).
+    pub fn memory_bytes(&self) -> usize {
+        self.model.memory_bytes()
+            + self.inside.capacity() * 4
+            + self.moved.capacity() * 4
+            + self.is_moved.capacity()
+            + self.samples.capacity() * 8
+    }
+}
+
+/// What [`Scene::step`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SculptStepReport {
+    /// The integrator's report.
+    pub step: StepReport,
+    /// The points' report.
+    pub follow: FollowReport,
+    /// Nodes touched by tools.
+    pub tool_nodes: usize,
+}
+
+/// Objects plus at most one sculpting region.
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    objects: Vec<SceneObject>,
+    region: Option<Region>,
+}
+
+impl Scene {
+    /// An empty scene.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Add an object; returns its index.
+    pub fn add(&mut self, object: SceneObject) -> usize {
+        self.objects.push(object);
+        self.objects.len() - 1
+    }
+
+    /// The objects.
+    pub fn objects(&self) -> &[SceneObject] {
+        &self.objects
+    }
+
+    /// The open region, if any.
+    pub fn region(&self) -> Option<&Region> {
+        self.region.as_ref()
+    }
+
+    /// The open region, mutably.
+    pub fn region_mut(&mut self) -> Option<&mut Region> {
+        self.region.as_mut()
+    }
+
+    /// Open a sculpting region on `object` over the box `[min, max]` (closing any open one with
+    /// [`Scene::end_stroke`] first). Samples the object's field on the grid (in parallel).
+    pub fn open_region(
+        &mut self,
+        object: usize,
+        min: DVec3,
+        max: DVec3,
+        params: RegionParams,
+    ) -> Result<(), SceneError> {
+        if self.region.is_some() {
+            self.end_stroke()?;
+        }
+        let obj = self
+            .objects
+            .get(object)
+            .ok_or(SceneError::NoObject(object))?;
+        let spec = GridSpec::try_covering(min, max, params.spacing)?;
+        let field = obj.field.clone();
+        let rest = ScalarGrid::from_fn(spec, |x| field.value(x));
+        let model = DynamicGrid::new(&rest, params.band, params.node)?;
+        let inside = (0..obj.positions.len() as u32)
+            .filter(|&i| spec.contains(obj.positions[i as usize]))
+            .collect();
+        self.region = Some(Region {
+            object,
+            model,
+            stepper: Stepper::new(params.integrator),
+            base: field,
+            inside,
+            moved: Vec::new(),
+            is_moved: vec![false; obj.positions.len()],
+            samples: Vec::new(),
+            params,
+        });
+        Ok(())
+    }
+
+    /// One step: clear forces, apply `ropes`, integrate `dt`, let points follow.
+    pub fn step(&mut self, dt: f64, ropes: &[Rope]) -> Result<SculptStepReport, SceneError> {
+        let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
+        let obj = &mut self.objects[region.object];
+        region.model.clear_forces();
+        let mut tool_nodes = 0;
+        for rope in ropes {
+            tool_nodes += rope.apply(&mut region.model)?;
+        }
+        let step = region.stepper.step(&mut region.model, dt)?;
+        let follow = follow(
+            &region.base,
+            &region.model,
+            &region.inside,
+            &mut obj.positions,
+            &mut obj.normals,
+            dt,
+            &FollowOptions::default(),
+            &mut region.moved,
+            &mut region.is_moved,
+        );
+        if region.params.refit_every_step {
+            refit_moved(
+                &region.base,
+                &mut obj.field,
+                &region.model,
+                &region.moved,
+                &mut region.samples,
+            );
+        }
+        Ok(SculptStepReport {
+            step,
+            follow,
+            tool_nodes,
+        })
+    }
+
+    /// End the stroke: refit moved points' local fields from the grid and make the sculpted
+    /// field the new rest state (plastic), so the shape stays when the tools let go.
+    pub fn end_stroke(&mut self) -> Result<usize, SceneError> {
+        let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
+        let obj = &mut self.objects[region.object];
+        refit_moved(
+            &region.base,
+            &mut obj.field,
+            &region.model,
+            &region.moved,
+            &mut region.samples,
+        );
+        region.model.commit();
+        region.base = obj.field.clone();
+        let n = region.moved.len();
+        for &i in &region.moved {
+            region.is_moved[i as usize] = false;
+        }
+        region.moved.clear();
+        Ok(n)
+    }
+
+    /// Close the region (after ending the stroke).
+    pub fn close_region(&mut self) -> Result<(), SceneError> {
+        self.end_stroke()?;
+        self.region = None;
+        Ok(())
+    }
+
+    /// A snapshot of the region's field for the haptic thread.
+    pub fn publish(&mut self) -> Option<Arc<ScalarGrid>> {
+        self.region.as_mut().map(|r| r.model.publish())
+    }
+}

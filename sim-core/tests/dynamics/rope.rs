@@ -1,0 +1,189 @@
+//! Rope tool on a fitted sphere: the bump matches the profile; points outside the region are
+//! untouched; curve ropes; the bump stays after the stroke is committed.
+
+use glam::DVec3;
+use sim_core::dynamics::{Integrator, NodeParams};
+use sim_core::sampling::Shape;
+use sim_core::scene::{RegionParams, Scene};
+use sim_core::tools::{Profile, Rope};
+
+use crate::common::fitted_object;
+
+const R0: f64 = 0.3;
+const ANCHOR: f64 = 100.0;
+const PEAK: f64 = 0.01;
+const REACH: f64 = 0.15;
+
+fn region() -> RegionParams {
+    RegionParams {
+        spacing: 0.0125,
+        band: 0.08,
+        // Anchors dominate the neighbour springs (k/a = 0.01), so the static bump is the
+        // profile itself (DESIGN §4); ζ ≈ 0.8 so it settles in ~20 ms.
+        node: NodeParams {
+            mass: 1e-3,
+            damping: 0.5,
+            stiffness: 1.0,
+            anchor: ANCHOR,
+        },
+        integrator: Integrator::backward_euler(),
+        refit_every_step: false,
+    }
+}
+
+fn pulled_sphere(profile: Profile) -> (Scene, Vec<DVec3>) {
+    let mut scene = Scene::new();
+    let id = scene.add(fitted_object(Shape::Sphere { radius: R0 }, 4000, 3));
+    let before = scene.objects()[id].positions.clone();
+    scene
+        .open_region(
+            id,
+            DVec3::new(-0.25, -0.25, 0.1),
+            DVec3::new(0.25, 0.25, 0.42),
+            region(),
+        )
+        .unwrap();
+    let rope = Rope {
+        path: vec![DVec3::new(0.0, 0.0, R0)],
+        radius: REACH,
+        strength: ANCHOR * PEAK,
+        profile,
+    };
+    for _ in 0..300 {
+        scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
+    }
+    (scene, before)
+}
+
+/// Height `h` solving `h = PEAK·w(|p + h n − c| / REACH)` (the displaced zero set at `p`).
+fn expected_height(profile: &Profile, p: DVec3) -> f64 {
+    let c = DVec3::new(0.0, 0.0, R0);
+    let n = p.normalize();
+    let mut h = 0.0;
+    for _ in 0..20 {
+        h = PEAK * profile.weight((p + h * n).distance(c) / REACH);
+    }
+    h
+}
+
+#[test]
+fn gaussian_pull_raises_the_profile() {
+    // Tolerances: trilinear interpolation of a Gaussian of σ = 4 grid cells errs at its peak by
+    // about Σ_axes (h²/8)|∂²w| = 3(h/σ)²/8 ≈ 2.3 % of the peak; the neighbour springs
+    // (k/a = 0.01) smooth by about (k/a)·3(h/σ)² < 0.1 %; the fitted base field adds ~1e-4 m.
+    // So: every point within 10 % of the peak of its expected height, the peak within 5 %, the
+    // half-width at half maximum within 10 %.
+    let profile = Profile::Gaussian;
+    let (scene, before) = pulled_sphere(profile.clone());
+    let after = &scene.objects()[0].positions;
+    let mut worst: f64 = 0.0;
+    let (mut peak, mut peak_dist) = (0.0, f64::INFINITY);
+    let mut hwhm: f64 = 0.0;
+    for (p0, p1) in before.iter().zip(after) {
+        let h = p1.length() - p0.length();
+        let e = expected_height(&profile, *p0);
+        worst = worst.max((h - e).abs());
+        let d = p0.distance(DVec3::new(0.0, 0.0, R0));
+        if d < peak_dist {
+            (peak, peak_dist) = (h, d);
+        }
+        if h > 0.5 * PEAK {
+            hwhm = hwhm.max(d);
+        }
+    }
+    let hwhm_expected = REACH / 3.0 * (2.0 * 2f64.ln()).sqrt();
+    assert!(worst < 0.1 * PEAK, "worst height error {worst}");
+    assert!(
+        peak_dist < 0.01 && (peak - PEAK).abs() < 0.05 * PEAK,
+        "peak {peak} at {peak_dist}"
+    );
+    assert!(
+        (hwhm - hwhm_expected).abs() < 0.1 * hwhm_expected,
+        "HWHM {hwhm} vs {hwhm_expected}"
+    );
+}
+
+#[test]
+fn points_outside_the_region_are_untouched_bit_for_bit() {
+    let (scene, before) = pulled_sphere(Profile::Spherical);
+    let region = scene.region().unwrap();
+    let spec = *region.model().spec();
+    let after = &scene.objects()[0].positions;
+    let mut outside = 0;
+    for (p0, p1) in before.iter().zip(after) {
+        if !spec.contains(*p0) {
+            assert_eq!(
+                p0.to_array().map(f64::to_bits),
+                p1.to_array().map(f64::to_bits)
+            );
+            outside += 1;
+        }
+    }
+    assert!(outside > 2000, "{outside}");
+}
+
+#[test]
+fn committed_bump_stays_and_the_field_is_refitted() {
+    let (mut scene, _) = pulled_sphere(Profile::Constant);
+    let top = DVec3::new(0.0, 0.0, R0 + PEAK);
+    // Before the stroke ends the fitted field still shows the sphere (f ≈ +PEAK at the top).
+    assert!((scene.objects()[0].field.value(top) - PEAK).abs() < 2e-3);
+    let refitted = scene.end_stroke().unwrap();
+    assert!(refitted > 50, "{refitted}");
+    // After: the refit field's zero set passes through the raised top (within 20 % of the
+    // peak: local fits of 3³ coefficients over ~0.1 m domains smooth the plateau's rim).
+    assert!(scene.objects()[0].field.value(top).abs() < 0.2 * PEAK);
+    // With no force the committed shape is the new rest state: nothing moves any more.
+    let snapshot = scene.objects()[0].positions.clone();
+    for _ in 0..20 {
+        scene.step(1e-3, &[]).unwrap();
+    }
+    assert_eq!(snapshot, scene.objects()[0].positions);
+}
+
+#[test]
+fn curve_rope_raises_a_ridge() {
+    let mut scene = Scene::new();
+    let id = scene.add(fitted_object(Shape::Sphere { radius: R0 }, 4000, 3));
+    scene
+        .open_region(
+            id,
+            DVec3::new(-0.25, -0.25, 0.1),
+            DVec3::new(0.25, 0.25, 0.42),
+            region(),
+        )
+        .unwrap();
+    let rope = Rope {
+        path: vec![
+            DVec3::new(-0.1, 0.0, 0.283),
+            DVec3::new(0.0, 0.0, R0),
+            DVec3::new(0.1, 0.0, 0.283),
+        ],
+        radius: 0.08,
+        strength: ANCHOR * PEAK,
+        profile: Profile::Table(vec![1.0, 1.0, 0.5, 0.0]),
+    };
+    for _ in 0..300 {
+        scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
+    }
+    // Along the ridge the value at the raised surface is ~0; across it (0.1 m off) unchanged.
+    for x in [-0.08, 0.0, 0.08] {
+        let p = DVec3::new(x, 0.0, 0.0);
+        let top = p + DVec3::new(0.0, 0.0, (R0 * R0 - x * x).sqrt() + PEAK);
+        let f = sim_core::follow::sculpted_value(
+            &scene.objects()[0].field,
+            scene.region().unwrap().model(),
+            top,
+        )
+        .0;
+        assert!(f.abs() < 0.15 * PEAK, "ridge at x={x}: {f}");
+    }
+    let side = DVec3::new(0.0, 0.15, (R0 * R0 - 0.15f64 * 0.15).sqrt());
+    let f = sim_core::follow::sculpted_value(
+        &scene.objects()[0].field,
+        scene.region().unwrap().model(),
+        side,
+    )
+    .0;
+    assert!(f.abs() < 1e-3, "off the ridge {f}");
+}
