@@ -11,6 +11,14 @@ fn main() {
     let a: Vec<String> = std::env::args().collect();
     let arg = |i: usize, d: f64| a.get(i).and_then(|s| s.parse().ok()).unwrap_or(d);
     let shape = match a.get(1).map(String::as_str).unwrap_or("sphere") {
+        "cylinder" => Shape::Cylinder {
+            radius: 0.5,
+            half_height: 0.8,
+        },
+        "plate" => Shape::Plate {
+            half_size: 0.5,
+            thickness: 0.004,
+        },
         "torus" => Shape::Torus {
             major: 1.0,
             minor: 0.4,
@@ -25,6 +33,8 @@ fn main() {
         regularization: arg(6, 1e-5),
         size: arg(7, 3.0) as usize,
         support: arg(8, 1.0),
+        normal_agreement: arg(9, -0.5),
+        sheet_width: arg(10, 0.02),
         ..FitParams::default()
     };
     let pts = shape.sample(n, 1);

@@ -93,10 +93,12 @@ impl GlobalField {
         validate(points, normals, knn, params)?;
         let n = points.len();
         let radii: Vec<f64> = (0..n).map(|i| knn.radius(i)).collect();
-        let outlier = flag_outliers(knn, &radii, params.outlier_ratio);
         let mut sorted: Vec<f64> = radii.iter().copied().filter(|r| *r > 0.0).collect();
         sorted.sort_by(f64::total_cmp);
         let typical = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+        let mut outlier = flag_outliers(knn, &radii, params.outlier_ratio, typical);
+        flag_off_surface(points, normals, knn, &mut outlier);
+        flag_inconsistent(knn, normals, &mut outlier, params.normal_agreement);
         let c = params.size.pow(3);
         let mut coeffs = vec![0.0; n * c];
         let mut frames = vec![
@@ -181,6 +183,7 @@ impl GlobalField {
         let d = &*self.inner;
         let size = d.params.size;
         let c = size * size * size;
+        let sheet = d.params.sheet_width / (1.0 + d.params.offset);
         let (mut sw, mut swf) = (0.0, 0.0);
         let (mut gsw, mut gswf) = (DVec3::ZERO, DVec3::ZERO);
         d.grid.for_each_candidate(x, |i| {
@@ -202,10 +205,24 @@ impl GlobalField {
             let (s, gq) = eval3(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
             let inv_edge = 0.5 / fr.half;
             let gs = (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + fr.axes[2] * gq[2]) * inv_edge;
-            sw += phi;
-            swf += phi * s;
-            gsw += gphi;
-            gswf += gphi * s + gs * phi;
+            // Sheet selectivity: fields whose own zero set passes close to x dominate, so the
+            // two sheets of a thin shell do not average each other away.
+            let (w, gw) = if sheet > 0.0 {
+                let tau = sheet * fr.half;
+                let q = s / tau;
+                let base = 1.0 / (1.0 + q * q);
+                let gamma = (base * base) * (base * base);
+                (
+                    phi * gamma,
+                    gphi * gamma - gs * (8.0 * phi * q * gamma * base / tau),
+                )
+            } else {
+                (phi, gphi)
+            };
+            sw += w;
+            swf += w * s;
+            gsw += gw;
+            gswf += gw * s + gs * w;
         });
         if sw > 1e-12 {
             let f = swf / sw;
@@ -364,8 +381,9 @@ fn validate(
         p.support > 0.0 && p.support <= 1.0,
         p.normal_agreement.is_finite(),
         p.outlier_ratio > 1.0,
+        p.sheet_width >= 0.0 && p.sheet_width.is_finite(),
     ];
-    const WHAT: [&str; 7] = [
+    const WHAT: [&str; 8] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -373,6 +391,7 @@ fn validate(
         "support must be in (0, 1]",
         "normal_agreement must be finite",
         "outlier_ratio must exceed 1",
+        "sheet_width must be finite and non-negative",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),
@@ -381,8 +400,9 @@ fn validate(
 }
 
 /// A point is an outlier when its k-NN radius exceeds `ratio` × the median radius of its
-/// neighbours (an isolated point far from a dense surface).
-fn flag_outliers(knn: &KnnGraph, radii: &[f64], ratio: f64) -> Vec<bool> {
+/// neighbours (an isolated point far from a dense surface), or `3·ratio` × the median radius of
+/// all points (a cluster of outliers, whose members are each other's neighbours).
+fn flag_outliers(knn: &KnnGraph, radii: &[f64], ratio: f64, global_median: f64) -> Vec<bool> {
     (0..radii.len())
         .into_par_iter()
         .map_init(Vec::new, |buf, i| {
@@ -393,7 +413,60 @@ fn flag_outliers(knn: &KnnGraph, radii: &[f64], ratio: f64) -> Vec<bool> {
             }
             let mid = buf.len() / 2;
             let (_, median, _) = buf.select_nth_unstable_by(mid, f64::total_cmp);
-            radii[i] > ratio * *median && *median > 0.0
+            (radii[i] > ratio * *median && *median > 0.0) || radii[i] > 3.0 * ratio * global_median
         })
         .collect()
+}
+
+/// Flag points lying off the surface their neighbours agree on: farther from the plane through
+/// the neighbours' centroid (normal: their mean normal) than 0.3 × the median neighbour distance.
+/// Catches outliers a few spacings off the surface, which the density test cannot. Skipped where
+/// the neighbours' normals cancel (a thin shell) or there are fewer than four neighbours.
+fn flag_off_surface(points: &[DVec3], normals: &[DVec3], knn: &KnnGraph, outlier: &mut [bool]) {
+    let flags: Vec<bool> = (0..points.len())
+        .into_par_iter()
+        .map(|i| {
+            let (mut count, mut centroid, mut mean_n) = (0usize, DVec3::ZERO, DVec3::ZERO);
+            for &j in &knn.neighbours(i)[1..] {
+                if !outlier[j as usize] {
+                    count += 1;
+                    centroid += points[j as usize];
+                    mean_n += normals[j as usize];
+                }
+            }
+            if count < 4 || mean_n.length() < 0.5 * count as f64 {
+                return false;
+            }
+            let centroid = centroid / count as f64;
+            let offset = (points[i] - centroid).dot(mean_n.normalize()).abs();
+            let d = knn.distances(i);
+            offset > 0.3 * d[d.len() / 2]
+        })
+        .collect();
+    for (o, f) in outlier.iter_mut().zip(flags) {
+        *o |= f;
+    }
+}
+
+/// Flag points whose normal disagrees (dot below `agreement`) with at least three quarters of
+/// their inlier neighbours: a flipped normal amid consistent ones. Its local field would be the
+/// reverse of its neighbours' and the blend's gradient would blow up where they meet. A thin
+/// shell, whose neighbourhoods are about half one sheet and half the other, is not affected.
+fn flag_inconsistent(knn: &KnnGraph, normals: &[DVec3], outlier: &mut [bool], agreement: f64) {
+    let flags: Vec<bool> = (0..normals.len())
+        .into_par_iter()
+        .map(|i| {
+            let (mut total, mut against) = (0usize, 0usize);
+            for &j in &knn.neighbours(i)[1..] {
+                if !outlier[j as usize] {
+                    total += 1;
+                    against += usize::from(normals[j as usize].dot(normals[i]) < agreement);
+                }
+            }
+            total >= 4 && 4 * against >= 3 * total
+        })
+        .collect();
+    for (o, f) in outlier.iter_mut().zip(flags) {
+        *o |= f;
+    }
 }

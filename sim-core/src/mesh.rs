@@ -2,8 +2,9 @@
 //! cell crossed by the surface (the mean of its edge crossings, then Newton-projected onto the
 //! zero set), one quad per crossed grid edge, oriented so triangle normals point outward.
 //!
-//! Contract: only cells whose eight corners lie inside some local support emit geometry, so the
-//! nearest-point fallback far from the surface cannot create spurious sheets. Vertices finite.
+//! Contract: only cells with a corner inside some local support emit geometry, so sign changes
+//! of the nearest-point fallback far from the surface cannot create spurious sheets. Vertices
+//! are finite.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -31,35 +32,32 @@ pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution:
     let dims = ((extent / h).ceil().as_uvec3() + glam::UVec3::ONE).max(glam::UVec3::splat(2));
     let [nx, ny, nz] = [dims.x as usize, dims.y as usize, dims.z as usize];
     let node = |i: usize, j: usize, k: usize| lo + DVec3::new(i as f64, j as f64, k as f64) * h;
-    // Node values; NaN marks "not covered by any support".
-    let values: Vec<f64> = (0..nx * ny * nz)
+    // Node values, and whether a local support covers the node.
+    let values: Vec<(f64, bool)> = (0..nx * ny * nz)
         .into_par_iter()
         .map(|flat| {
             let (i, j, k) = (flat % nx, (flat / nx) % ny, flat / (nx * ny));
             let x = node(i, j, k);
-            if field.is_covered(x) {
-                field.value(x)
-            } else {
-                f64::NAN
-            }
+            (field.value(x), field.is_covered(x))
         })
         .collect();
-    let at = |i: usize, j: usize, k: usize| values[(k * ny + j) * nx + i];
+    let at = |i: usize, j: usize, k: usize| values[(k * ny + j) * nx + i].0;
+    let covered = |i: usize, j: usize, k: usize| values[(k * ny + j) * nx + i].1;
     let (cx, cy, cz) = (nx - 1, ny - 1, nz - 1);
-    let opts = ProjectOptions {
-        max_iterations: 6,
-        ..ProjectOptions::default()
-    };
-    // One vertex per crossed, fully covered cell.
+    let opts = ProjectOptions::default();
+    // One vertex per crossed cell with at least one covered corner.
     let cell_vertex: Vec<Option<DVec3>> = (0..cx * cy * cz)
         .into_par_iter()
         .map(|flat| {
             let (i, j, k) = (flat % cx, (flat / cx) % cy, flat / (cx * cy));
             let mut corner = [0.0; 8];
+            let mut any_covered = false;
             for (c, v) in corner.iter_mut().enumerate() {
-                *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+                let (a, b, d) = (i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+                *v = at(a, b, d);
+                any_covered |= covered(a, b, d);
             }
-            if corner.iter().any(|v| v.is_nan()) {
+            if !any_covered {
                 return None;
             }
             let (mut sum, mut count) = (DVec3::ZERO, 0.0);
@@ -77,7 +75,7 @@ pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution:
             }
             let guess = node(i, j, k) + sum / count * h;
             let pr = project_to_zero_set_with(field, guess, &opts);
-            let ok = pr.point.is_finite() && (pr.point - guess).length() < 1.5 * h;
+            let ok = pr.converged && (pr.point - guess).length() < 2.0 * h;
             Some(if ok { pr.point } else { guess })
         })
         .collect();
@@ -112,7 +110,7 @@ pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution:
                         ),
                         _ => continue,
                     };
-                    if f0.is_nan() || f1.is_nan() || (f0 < 0.0) == (f1 < 0.0) {
+                    if (f0 < 0.0) == (f1 < 0.0) {
                         continue;
                     }
                     if quad.iter().any(|&(a, b, c)| a >= cx || b >= cy || c >= cz) {

@@ -86,8 +86,8 @@ pub fn reconstruct(
     let mut points = points.clone();
     points.validate()?;
     let pos = &points.positions;
-    if params.k < 1 {
-        return Err(FieldError::Param("k must be at least 1").into());
+    if params.k < 2 {
+        return Err(FieldError::Param("k must be at least 2 (a point and a neighbour)").into());
     }
     observer.begin(Stage::Knn);
     let index = PointIndex::new(pos);

@@ -1,0 +1,8 @@
+//! Integration tests of the point-set surface, built into one binary. Run the numerics with
+//! `cargo test -p sim-core --profile ci`.
+
+mod common;
+mod field_api;
+mod hard_cases;
+mod io_formats;
+mod meshing;
