@@ -10,6 +10,7 @@
 //! - [`server`]: [`server::Server::start`] wires a device, the servo thread and a transport;
 //!   tests start servers in-process with it.
 //! - [`config`]: the TOML configuration, validated with field names in every error.
+//! - [`setup`]: config → devices, certificates, servo and network settings.
 //! - [`tls`]: self-signed certificates (`gen-cert`) and the pinned-certificate verifier.
 
 pub mod client;
@@ -19,6 +20,7 @@ pub mod device;
 pub mod loop_bench;
 pub mod server;
 pub mod servo;
+pub mod setup;
 pub mod telemetry;
 pub mod tls;
 pub mod transport;
