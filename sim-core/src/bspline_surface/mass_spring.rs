@@ -248,6 +248,21 @@ impl MassSpringMesh {
         }
     }
 
+    /// The springs' force on every point (no external or damping forces), N, into `out`.
+    pub fn internal_forces(&self, out: &mut [DVec3]) {
+        out.fill(DVec3::ZERO);
+        for s in &self.springs {
+            let (a, b) = (s.a as usize, s.b as usize);
+            let d = self.positions[b] - self.positions[a];
+            let len = d.length();
+            if len > 0.0 {
+                let f = s.k * (len - s.rest) / len * d;
+                out[a] += f;
+                out[b] -= f;
+            }
+        }
+    }
+
     /// The points as probe samples: normals `t_u × t_v` from neighbour differences (oriented like
     /// the patch's `S_u × S_v`), area the point's share of the mesh (half on borders).
     pub fn samples(&self, out: &mut [SurfaceSample]) {

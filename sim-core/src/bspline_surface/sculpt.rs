@@ -12,7 +12,7 @@
 use glam::DVec3;
 
 use super::{BicubicPatch, DualMap, MassSpringMesh, MeshParams, SurfaceError};
-use crate::haptic::{ContactModel, HapticOutput};
+use crate::haptic::{ContactModel, HapticOutput, hua_qin_force};
 use crate::probe::{ContactParams, Probe, ProbeRenderer, SurfaceSample};
 use protocol::packet::ModelKind;
 
@@ -27,6 +27,9 @@ pub struct SculptTick {
     pub contacts: usize,
     /// Substeps the mesh took.
     pub substeps: usize,
+    /// Hua & Qin's mapping of the same state for comparison ([`crate::haptic::hua_qin_force`]
+    /// with profile `s_j = d_j / max d` over the contacts); zero with the button up.
+    pub hua_qin: DVec3,
 }
 
 /// A B-spline surface with its mass-spring dual, sculpted by a probe.
@@ -38,6 +41,7 @@ pub struct ProbeSculptor {
     renderer: ProbeRenderer,
     samples: Vec<SurfaceSample>,
     external: Vec<DVec3>,
+    internal: Vec<DVec3>,
     validity_radius: f64,
     lifetime_s: f64,
 }
@@ -71,6 +75,7 @@ impl ProbeSculptor {
             renderer,
             samples: vec![placeholder; n * n],
             external: vec![DVec3::ZERO; n * n],
+            internal: vec![DVec3::ZERO; n * n],
             validity_radius,
             lifetime_s,
         })
@@ -112,6 +117,7 @@ impl ProbeSculptor {
                 applied: DVec3::ZERO,
                 contacts: f.contact_count,
                 substeps,
+                hua_qin: DVec3::ZERO,
             });
         }
         let substeps = (dt / self.mesh.stable_dt()).ceil().max(1.0) as usize;
@@ -149,11 +155,21 @@ impl ProbeSculptor {
             }
             _ => ContactModel::none(self.lifetime_s),
         };
+        self.mesh.internal_forces(&mut self.internal);
+        let contacts_now = self.renderer.contacts();
+        let d_max = contacts_now.iter().fold(0.0f64, |m, c| m.max(c.depth));
+        let internal = &self.internal;
+        let hua_qin = hua_qin_force(
+            contacts_now
+                .iter()
+                .map(|c| (c.depth / d_max, internal[c.sample as usize])),
+        );
         Ok(SculptTick {
             output: HapticOutput { force, model },
             applied,
             contacts,
             substeps,
+            hua_qin,
         })
     }
 

@@ -3,4 +3,6 @@
 //! next to each assertion with the reason.
 
 mod bspline;
+mod field;
 mod probe;
+mod reaction;
