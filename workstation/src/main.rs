@@ -22,6 +22,8 @@ struct Cli {
 enum Command {
     /// Print what this build can do and how to start.
     Status,
+    /// Fit points (a file or gen:sphere:R:N) into an implicit surface; time it, measure its error.
+    Fit(workstation::fit::FitArgs),
 }
 
 fn main() -> ExitCode {
@@ -38,6 +40,10 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Fit(args) => {
+            let report = workstation::fit::run(&args)?;
+            workstation::fit::print(&report, args.json)
+        }
         Command::Status => {
             workstation::status::print();
             Ok(())

@@ -1,0 +1,438 @@
+//! `workstation fit`: fit a point set (a file or an analytic generator) into an implicit
+//! surface, time each construction stage, measure the zero set against a reference and
+//! optionally mesh it.
+//!
+//! Errors are relative to the reference size: the radius for an analytic sphere, the
+//! bounding-box diagonal otherwise. Timing uses the wall clock around each sim-core stage.
+
+pub mod spec;
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use glam::DVec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use sim_core::accuracy::{MeshReference, Reference, zero_set_error};
+use sim_core::io::{self, Format, Loaded};
+use sim_core::mesh::{TriMesh, extract_zero_set};
+use sim_core::reconstruct::{NormalPolicy, Stage, StageObserver, reconstruct};
+use sim_core::sampling::Noise;
+use sim_core::{FitParams, PointSet, Progress};
+
+use spec::{InputSpec, ReferenceSpec, parse_input, parse_reference};
+
+/// Arguments of `workstation fit`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FitArgs {
+    /// Point or mesh file (.ply .off .obj .xyz .pwn .stl), or a generator: gen:sphere:R:N,
+    /// gen:torus:R:r:N, gen:ellipsoid:a:b:c:N, gen:box:hx:hy:hz:round:N,
+    /// gen:cylinder:radius:height:N, gen:plate:side:thickness:N.
+    pub input: String,
+    /// Ground truth: sphere:R, torus:R,r, ellipsoid:a,b,c, box:hx,hy,hz,round, cylinder:r,h,
+    /// plate:side,t, mesh:FILE or none. Default: the generator's shape, or the input file's own
+    /// faces when it has any.
+    #[arg(long)]
+    pub reference: Option<String>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the meshed zero set (.ply, .obj or .stl).
+    #[arg(long, value_name = "OUT")]
+    pub mesh: Option<PathBuf>,
+    /// Write the fitted points with their normals (and colours) as binary PLY.
+    #[arg(long, value_name = "OUT")]
+    pub points_out: Option<PathBuf>,
+    /// Neighbours per local fit (the point included).
+    #[arg(long, default_value_t = FitParams::default().k)]
+    pub k: usize,
+    /// B-spline coefficients per axis (3..=6).
+    #[arg(long, default_value_t = FitParams::default().size)]
+    pub size: usize,
+    /// Off-surface sample offset, relative to the neighbourhood radius.
+    #[arg(long, default_value_t = FitParams::default().offset)]
+    pub offset: f64,
+    /// Row-weight width h, relative to the neighbourhood radius.
+    #[arg(long, default_value_t = FitParams::default().weight_width)]
+    pub weight_width: f64,
+    /// Tikhonov weight toward the planar field (relative).
+    #[arg(long, default_value_t = FitParams::default().regularization)]
+    pub regularization: f64,
+    /// Sheet-selective blending width (0 = the papers' plain blend; ~0.02 for thin shells).
+    #[arg(long, default_value_t = FitParams::default().sheet_width)]
+    pub sheet_width: f64,
+    /// What to do with given normals: keep, reorient (fix flipped ones) or estimate (ignore).
+    #[arg(long, value_enum, default_value_t = NormalsArg::Keep)]
+    pub normals: NormalsArg,
+    /// Points projected onto the zero set to measure the error.
+    #[arg(long, default_value_t = 10_000)]
+    pub error_samples: usize,
+    /// Seed of the generator and of the error samples.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Gaussian position noise for generated input, relative to the reference size.
+    #[arg(long, default_value_t = 0.0)]
+    pub noise: f64,
+    /// Grid cells along the longest side for --mesh.
+    #[arg(long, default_value_t = 128)]
+    pub resolution: usize,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// `--normals`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum NormalsArg {
+    /// Keep given normals; estimate only missing ones.
+    Keep,
+    /// Make given normals' signs consistent (repairs flipped normals).
+    Reorient,
+    /// Ignore given normals; PCA + MST orientation.
+    Estimate,
+}
+
+/// What `fit` measured; printed as text or as one JSON object.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitReport {
+    /// Input as given.
+    pub input: String,
+    /// Number of points fitted.
+    pub points: usize,
+    /// Total construction time (k-NN + normals + fits), seconds.
+    pub construct_s: f64,
+    /// k-d tree and k-NN queries, seconds.
+    pub knn_s: f64,
+    /// Normal estimation / orientation, seconds.
+    pub normals_s: f64,
+    /// Local fits and the support index, seconds.
+    pub fits_s: f64,
+    /// Worker threads used.
+    pub threads: usize,
+    /// Normals estimated by PCA.
+    pub estimated_normals: usize,
+    /// Points rejected as outliers.
+    pub outliers: usize,
+    /// The reference measured against, if any.
+    pub reference: Option<String>,
+    /// Length the relative errors are divided by.
+    pub reference_size: Option<f64>,
+    /// RMS zero-set distance to the reference, relative to `reference_size`.
+    pub rms_error: Option<f64>,
+    /// Max zero-set distance to the reference, relative to `reference_size`.
+    pub max_error: Option<f64>,
+    /// RMS distance in metres.
+    pub rms_error_abs: Option<f64>,
+    /// Max distance in metres.
+    pub max_error_abs: Option<f64>,
+    /// Points projected for the error.
+    pub error_samples: usize,
+    /// Projections that did not converge (still counted).
+    pub unconverged: usize,
+    /// Error measurement time, seconds.
+    pub measure_s: f64,
+    /// The fit parameters.
+    pub params: FitParams,
+    /// Triangles written with --mesh.
+    pub mesh_triangles: Option<usize>,
+}
+
+struct Timer {
+    started: Option<Instant>,
+    spent: [Duration; 3],
+}
+
+impl StageObserver for Timer {
+    fn begin(&mut self, _: Stage) {
+        self.started = Some(Instant::now());
+    }
+    fn end(&mut self, stage: Stage) {
+        let spent = self.started.take().map_or(Duration::ZERO, |t| t.elapsed());
+        self.spent[stage as usize] += spent;
+    }
+}
+
+struct Bar(ProgressBar);
+
+impl Progress for Bar {
+    fn advance(&self, n: usize) {
+        self.0.inc(n as u64);
+    }
+}
+
+fn format_of(path: &Path) -> anyhow::Result<Format> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    Format::from_extension(ext).with_context(|| {
+        format!(
+            "{}: unknown extension (ply, off, obj, xyz, pwn, stl)",
+            path.display()
+        )
+    })
+}
+
+fn read_file(path: &Path) -> anyhow::Result<Loaded> {
+    let format = format_of(path)?;
+    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    io::read(BufReader::new(file), format).with_context(|| format!("reading {}", path.display()))
+}
+
+fn write_mesh(path: &Path, mesh: &TriMesh) -> anyhow::Result<()> {
+    let format = format_of(path)?;
+    if !matches!(format, Format::Ply | Format::Obj | Format::Stl) {
+        bail!(
+            "{}: meshes are written as .ply, .obj or .stl",
+            path.display()
+        );
+    }
+    let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    io::write_mesh(BufWriter::new(file), mesh, format)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Run `fit` and return the report (printing is the caller's choice; see [`print`]).
+pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
+    let input = parse_input(&args.input)?;
+    let (points, own_mesh, default_ref): (PointSet, Option<TriMesh>, ReferenceSpec) = match &input {
+        InputSpec::File(path) => {
+            let loaded = read_file(path)?;
+            (loaded.points, loaded.mesh, ReferenceSpec::None)
+        }
+        InputSpec::Generated { shape, n } => {
+            let noise = Noise {
+                position: args.noise * shape.reference_size(),
+                normal: 0.0,
+            };
+            (
+                shape.sample_noisy(*n, args.seed, noise),
+                None,
+                ReferenceSpec::Shape(*shape),
+            )
+        }
+    };
+    let reference_spec = match &args.reference {
+        Some(s) => parse_reference(s)?,
+        None => default_ref,
+    };
+    // A file with faces is measured against its own mesh unless a reference is given.
+    let own_reference = match (&args.reference, own_mesh) {
+        (None, Some(mesh)) => MeshReference::new(mesh),
+        _ => None,
+    };
+    let reference: Option<(String, Box<dyn Reference>)> = match reference_spec {
+        ReferenceSpec::None => {
+            own_reference.map(|m| ("input mesh".to_string(), Box::new(m) as Box<dyn Reference>))
+        }
+        ReferenceSpec::Shape(shape) => Some((format!("{shape:?}"), Box::new(shape))),
+        ReferenceSpec::Mesh(path) => {
+            let mesh = read_file(&path)?
+                .mesh
+                .with_context(|| format!("{} has no faces", path.display()))?;
+            let m = MeshReference::new(mesh).context("reference mesh has no triangles")?;
+            Some((format!("mesh {}", path.display()), Box::new(m)))
+        }
+    };
+    let params = FitParams {
+        k: args.k,
+        size: args.size,
+        offset: args.offset,
+        weight_width: args.weight_width,
+        regularization: args.regularization,
+        sheet_width: args.sheet_width,
+        ..FitParams::default()
+    };
+    let policy = match args.normals {
+        NormalsArg::Keep => NormalPolicy::Keep,
+        NormalsArg::Reorient => NormalPolicy::Reorient,
+        NormalsArg::Estimate => NormalPolicy::Estimate,
+    };
+    let bar = if args.quiet || args.json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(points.len() as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("fitting {bar:40} {pos}/{len} local fields ({per_sec})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut timer = Timer {
+        started: None,
+        spent: [Duration::ZERO; 3],
+    };
+    let t0 = Instant::now();
+    let rec = reconstruct(&points, &params, policy, &mut timer, &Bar(bar.clone()))?;
+    let construct_s = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let t1 = Instant::now();
+    let error = reference
+        .as_ref()
+        .map(|(_, r)| zero_set_error(&rec.field, r.as_ref(), args.error_samples, 0.5, args.seed));
+    let measure_s = t1.elapsed().as_secs_f64();
+
+    let mut mesh_triangles = None;
+    if let Some(out) = &args.mesh {
+        let (lo, hi) = points.bounds().context("no points")?;
+        let pad = DVec3::splat(0.05 * (hi - lo).length() + 2.0 * rec.field.scale());
+        let mesh = extract_zero_set(&rec.field, (lo - pad, hi + pad), args.resolution);
+        write_mesh(out, &mesh)?;
+        mesh_triangles = Some(mesh.triangles.len());
+    }
+    if let Some(out) = &args.points_out {
+        let fitted = PointSet {
+            normals: Some(rec.normals.clone()),
+            ..points.clone()
+        };
+        let file = File::create(out).with_context(|| format!("creating {}", out.display()))?;
+        io::write_points_ply(BufWriter::new(file), &fitted, false)?;
+    }
+    let secs = |s: Stage| timer.spent[s as usize].as_secs_f64();
+    Ok(FitReport {
+        input: args.input.clone(),
+        points: points.len(),
+        construct_s,
+        knn_s: secs(Stage::Knn),
+        normals_s: secs(Stage::Normals),
+        fits_s: secs(Stage::Fit),
+        threads: rayon::current_num_threads(),
+        estimated_normals: rec.estimated_normals,
+        outliers: rec.field.outlier_count(),
+        reference: reference.as_ref().map(|(name, _)| name.clone()),
+        reference_size: error.map(|e| e.reference_size),
+        rms_error: error.map(|e| e.rms_relative()),
+        max_error: error.map(|e| e.max_relative()),
+        rms_error_abs: error.map(|e| e.rms),
+        max_error_abs: error.map(|e| e.max),
+        error_samples: error.map_or(0, |e| e.samples),
+        unconverged: error.map_or(0, |e| e.unconverged),
+        measure_s,
+        params,
+        mesh_triangles,
+    })
+}
+
+/// Print the report as text, or as one JSON object with `--json`.
+pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string(report)?);
+        return Ok(());
+    }
+    let r = report;
+    println!("input        {}", r.input);
+    println!(
+        "points       {} ({} normals estimated, {} outliers rejected)",
+        r.points, r.estimated_normals, r.outliers
+    );
+    println!(
+        "params       k = {}, size = {}³, offset = {}, threads = {}",
+        r.params.k, r.params.size, r.params.offset, r.threads
+    );
+    println!("k-NN         {:9.4} s", r.knn_s);
+    println!("normals      {:9.4} s", r.normals_s);
+    println!("fits         {:9.4} s", r.fits_s);
+    println!("construction {:9.4} s total", r.construct_s);
+    match (&r.reference, r.rms_error, r.max_error, r.reference_size) {
+        (Some(name), Some(rms), Some(max), Some(size)) => {
+            println!("reference    {name} (size {size:.6e} m)");
+            println!(
+                "zero set     RMS {rms:.3e}, max {max:.3e} of the reference size over {} projected points ({} unconverged)",
+                r.error_samples, r.unconverged
+            );
+        }
+        _ => println!(
+            "zero set     no reference given (use --reference sphere:R | torus:R,r | mesh:FILE)"
+        ),
+    }
+    if let Some(t) = r.mesh_triangles {
+        println!("mesh         {t} triangles written");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        fit: FitArgs,
+    }
+
+    fn args(line: &[&str]) -> FitArgs {
+        Cli::parse_from(std::iter::once("fit").chain(line.iter().copied())).fit
+    }
+
+    #[test]
+    fn generated_sphere_reports_the_checked_json_fields() {
+        let dir = std::env::temp_dir().join(format!("ws-fit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mesh = dir.join("sphere.stl");
+        let a = args(&[
+            "gen:sphere:2:3000",
+            "--json",
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--resolution",
+            "32",
+        ]);
+        let report = run(&a).unwrap();
+        let json: serde_json::Value = serde_json::to_value(&report).unwrap();
+        for key in ["points", "construct_s", "rms_error", "max_error"] {
+            assert!(json.get(key).is_some_and(|v| !v.is_null()), "missing {key}");
+        }
+        assert_eq!(report.points, 3000);
+        assert_eq!(report.error_samples, 10_000);
+        assert_eq!(
+            report.reference_size,
+            Some(2.0),
+            "relative to R for a sphere"
+        );
+        assert!(report.rms_error.unwrap() < 1e-3);
+        // The mesh file reads back with the triangles reported.
+        let back = read_file(&mesh).unwrap().mesh.unwrap();
+        assert_eq!(Some(back.triangles.len()), report.mesh_triangles);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn file_input_with_faces_measures_against_its_own_mesh() {
+        let dir = std::env::temp_dir().join(format!("ws-fit-file-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // A sphere mesh made by fitting, written as PLY, read back as input.
+        let mesh_path = dir.join("in.ply");
+        run(&args(&[
+            "gen:sphere:1:2000",
+            "--quiet",
+            "--mesh",
+            mesh_path.to_str().unwrap(),
+            "--resolution",
+            "24",
+        ]))
+        .unwrap();
+        let report = run(&args(&[
+            mesh_path.to_str().unwrap(),
+            "--quiet",
+            "--normals",
+            "estimate",
+        ]))
+        .unwrap();
+        assert_eq!(report.reference.as_deref(), Some("input mesh"));
+        assert!(report.max_error.unwrap() < 0.05, "{report:?}");
+        let none = run(&args(&[
+            mesh_path.to_str().unwrap(),
+            "--quiet",
+            "--reference",
+            "none",
+        ]))
+        .unwrap();
+        assert!(none.reference.is_none() && none.rms_error.is_none());
+        assert!(run(&args(&["missing.ply"])).is_err());
+        assert!(run(&args(&["gen:sphere:1:100", "--reference", "mesh:nope.obj"])).is_err());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
