@@ -167,3 +167,21 @@ pub fn force_errors(
     }
     e
 }
+
+/// `n` seeded interior points at depths uniform in `depths` (fractions of `R`), with their
+/// exact depth (m) and outward normal: `(x, depth, normal)`.
+pub fn contact_points(
+    field: &AnalyticField,
+    n: usize,
+    seed: u64,
+    depths: (f64, f64),
+) -> Vec<(DVec3, f64, DVec3)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..n)
+        .map(|_| {
+            let d = field.size() * rng.random_range(depths.0..depths.1);
+            let (x, u) = field.interior_point(&mut rng, d);
+            (x, d, u)
+        })
+        .collect()
+}

@@ -160,22 +160,29 @@ impl ProbeRenderer {
 
     #[inline]
     fn touch(&mut self, probe: &Probe, index: u32, s: &SurfaceSample, sums: &mut Sums) {
-        let Some(hit) = probe.ray_crossing(s.position, s.normal) else {
+        let Some((t, q)) = probe.nearer_root(s.position, s.normal) else {
             return;
         };
-        let probe_normal = probe.gradient(s.position).normalize_or_zero();
-        let w = s.area * hit.depth;
+        let depth = t.abs();
+        let w = s.area * depth;
         sums.depth_area += w;
         sums.area += s.area;
         sums.surface_dir += w * s.normal;
-        sums.probe_dir -= w * probe_normal;
         sums.count += 1;
-        if self.contacts.len() < self.capacity {
+        let record = self.contacts.len() < self.capacity;
+        if !record && self.params.method == DirectionMethod::SurfaceNormal {
+            sums.truncated = true;
+            return;
+        }
+        let probe_normal = probe.normal_from_local(q);
+        sums.probe_dir -= w * probe_normal;
+        if record {
+            let exit = if t >= 0.0 { s.normal } else { -s.normal };
             self.contacts.push(Contact {
                 sample: index,
-                depth: hit.depth,
+                depth,
                 area: s.area,
-                exit: hit.exit_sign * s.normal,
+                exit,
                 probe_normal,
             });
         } else {

@@ -34,6 +34,8 @@ pub struct RayCrossing {
     pub point: DVec3,
     /// Outward unit normal of the probe at the crossing.
     pub probe_normal: DVec3,
+    /// Outward unit probe normal at the sample itself (`∇f_p/‖∇f_p‖`, zero at the centre).
+    pub normal_at_sample: DVec3,
 }
 
 /// An ellipsoid probe `f_p(x) = ‖S⁻¹Rᵀ(x − c)‖² − 1`: negative inside, zero on its surface.
@@ -44,6 +46,8 @@ pub struct Probe {
     pose: ProbePose,
     rot: DMat3,
     rot_t: DMat3,
+    /// `S⁻¹Rᵀ`: world offsets to the unit-sphere frame.
+    to_local: DMat3,
 }
 
 impl Probe {
@@ -60,6 +64,7 @@ impl Probe {
             pose: ProbePose::at(DVec3::ZERO),
             rot: DMat3::IDENTITY,
             rot_t: DMat3::IDENTITY,
+            to_local: DMat3::IDENTITY,
         };
         p.set_semi_axes(semi_axes)?;
         Ok(p)
@@ -73,6 +78,7 @@ impl Probe {
         }
         self.semi_axes = semi_axes;
         self.inv_axes = semi_axes.recip();
+        self.to_local = DMat3::from_diagonal(self.inv_axes) * self.rot_t;
         Ok(())
     }
 
@@ -89,6 +95,7 @@ impl Probe {
         };
         self.rot = DMat3::from_quat(q);
         self.rot_t = self.rot.transpose();
+        self.to_local = DMat3::from_diagonal(self.inv_axes) * self.rot_t;
         Ok(())
     }
 
@@ -115,7 +122,37 @@ impl Probe {
 
     #[inline]
     fn local(&self, x: DVec3) -> DVec3 {
-        self.inv_axes * (self.rot_t * (x - self.pose.position))
+        self.to_local * (x - self.pose.position)
+    }
+
+    /// Outward unit probe normal at the point whose unit-sphere coordinates are `q`
+    /// (`∇f_p ∝ R S⁻¹ q = (S⁻¹Rᵀ)ᵀ q`); zero at the centre.
+    #[inline]
+    pub(crate) fn normal_from_local(&self, q: DVec3) -> DVec3 {
+        (self.to_local.transpose() * q).normalize_or_zero()
+    }
+
+    /// The signed distance `t` along `n` to the nearer crossing and the sample's unit-sphere
+    /// coordinates `q`, for `p` strictly inside (see [`Probe::ray_crossing`]). The force loop's
+    /// lean form: no crossing point, no normals.
+    #[inline]
+    pub(crate) fn nearer_root(&self, p: DVec3, n: DVec3) -> Option<(f64, DVec3)> {
+        let q = self.local(p);
+        let c = q.length_squared() - 1.0;
+        if c >= 0.0 || !c.is_finite() {
+            return None;
+        }
+        let e = self.to_local * n;
+        let a = e.length_squared();
+        let b = q.dot(e);
+        let disc = b * b - a * c;
+        if a <= 0.0 || disc.is_nan() || disc <= 0.0 || !a.is_finite() {
+            return None;
+        }
+        let big = -(b + disc.sqrt().copysign(b));
+        let (r1, r2) = (big / a, c / big);
+        let (t_pos, t_neg) = if r1 > r2 { (r1, r2) } else { (r2, r1) };
+        Some((if t_pos <= -t_neg { t_pos } else { t_neg }, q))
     }
 
     /// The implicit value `f_p(x)` (dimensionless; negative inside).
@@ -148,33 +185,17 @@ impl Probe {
     /// cancellation. A tie (centre on the line midpoint) picks the crossing along `+n`.
     #[inline]
     pub fn ray_crossing(&self, p: DVec3, n: DVec3) -> Option<RayCrossing> {
-        let q = self.local(p);
-        let c = q.length_squared() - 1.0;
-        if c >= 0.0 || !c.is_finite() {
-            return None;
-        }
-        let e = self.inv_axes * (self.rot_t * n);
-        let a = e.length_squared();
-        let b = q.dot(e);
-        let disc = b * b - a * c;
-        if a <= 0.0 || disc.is_nan() || disc <= 0.0 || !a.is_finite() {
-            return None;
-        }
-        let big = -(b + disc.sqrt().copysign(b));
-        let (r1, r2) = (big / a, c / big);
-        let (t_pos, t_neg) = if r1 > r2 { (r1, r2) } else { (r2, r1) };
-        let (t, exit_sign) = if t_pos <= -t_neg {
-            (t_pos, 1.0)
-        } else {
-            (t_neg, -1.0)
-        };
-        let h = q + t * e;
-        let probe_normal = (self.rot * (self.inv_axes * h)).normalize_or_zero();
+        let (t, q) = self.nearer_root(p, n)?;
+        let e = self.to_local * n;
+        let exit_sign = if t >= 0.0 { 1.0 } else { -1.0 };
+        let probe_normal = self.normal_from_local(q + t * e);
+        let normal_at_sample = self.normal_from_local(q);
         Some(RayCrossing {
             depth: t.abs(),
             exit_sign,
             point: p + t * n,
             probe_normal,
+            normal_at_sample,
         })
     }
 }
