@@ -111,6 +111,16 @@ pub trait Device: Send {
     }
     /// Called on the servo thread after the last tick; should leave the output at zero.
     fn stop(&mut self) {}
+    /// A device whose vendor library runs its own servo scheduler (OpenHaptics) drives the
+    /// loop: it calls `tick` once per scheduler period from the scheduler's callback, inside
+    /// the device frame, until `tick` returns `false`, then returns. `None` (the default): the
+    /// driver thread times the loop itself.
+    fn run_scheduled(
+        &mut self,
+        _tick: &mut dyn FnMut(&mut dyn Device) -> bool,
+    ) -> Option<Result<(), DeviceError>> {
+        None
+    }
 }
 
 impl Device for Box<dyn Device> {
@@ -128,5 +138,11 @@ impl Device for Box<dyn Device> {
     }
     fn stop(&mut self) {
         (**self).stop()
+    }
+    fn run_scheduled(
+        &mut self,
+        tick: &mut dyn FnMut(&mut dyn Device) -> bool,
+    ) -> Option<Result<(), DeviceError>> {
+        (**self).run_scheduled(tick)
     }
 }

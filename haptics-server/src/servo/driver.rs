@@ -212,23 +212,35 @@ struct Loop {
 
 impl Loop {
     fn run(&mut self, device: &mut dyn Device, stop: &AtomicBool, period_ns: u64, spin: Duration) {
+        // A vendor scheduler (OpenHaptics) may drive the ticks instead of our deadlines.
+        let clock = self.clock;
+        let mut prev_ns: Option<u64> = None;
+        let scheduled = device.run_scheduled(&mut |dev| {
+            if stop.load(Ordering::Acquire) {
+                return false;
+            }
+            let now_ns = clock.now_ns();
+            let late = prev_ns.map_or(0, |p| now_ns.saturating_sub(p).saturating_sub(period_ns));
+            self.tick_and_record(dev, now_ns, Duration::from_nanos(late), prev_ns, period_ns);
+            prev_ns = Some(now_ns);
+            true
+        });
+        match scheduled {
+            Some(Ok(())) => return,
+            Some(Err(e)) => {
+                tracing::error!("device scheduler failed: {e}");
+                return;
+            }
+            None => {}
+        }
         let period = Duration::from_nanos(period_ns);
         let mut deadline = Instant::now() + period;
-        let mut prev_ns: Option<u64> = None;
         while !stop.load(Ordering::Acquire) {
             let started = rt::wait_until(deadline, spin);
             let now_ns = self.clock.ns_at(started);
             let lateness = started.saturating_duration_since(deadline);
-            let mut record = self.tick(device, now_ns);
-            let cost = Instant::now().saturating_duration_since(started);
-            record.lateness_ns = u64::try_from(lateness.as_nanos()).unwrap_or(u64::MAX);
-            record.cost_ns = u64::try_from(cost.as_nanos()).unwrap_or(u64::MAX);
-            record.period_ns = prev_ns.map_or(0, |p| now_ns.saturating_sub(p));
-            record.overrun = lateness > period;
+            self.tick_and_record(device, now_ns, lateness, prev_ns, period_ns);
             prev_ns = Some(now_ns);
-            if self.record_tx.push(record).is_err() {
-                self.dropped.fetch_add(1, Ordering::Relaxed);
-            }
             deadline += period;
             let now = Instant::now();
             if now > deadline + period {
@@ -237,6 +249,25 @@ impl Loop {
                     / u128::from(period_ns.max(1));
                 deadline += period * u32::try_from(behind).unwrap_or(u32::MAX);
             }
+        }
+    }
+
+    fn tick_and_record(
+        &mut self,
+        device: &mut dyn Device,
+        now_ns: u64,
+        lateness: Duration,
+        prev_ns: Option<u64>,
+        period_ns: u64,
+    ) {
+        let mut record = self.tick(device, now_ns);
+        let cost = self.clock.now_ns().saturating_sub(now_ns);
+        record.lateness_ns = u64::try_from(lateness.as_nanos()).unwrap_or(u64::MAX);
+        record.cost_ns = cost;
+        record.period_ns = prev_ns.map_or(0, |p| now_ns.saturating_sub(p));
+        record.overrun = record.lateness_ns > period_ns;
+        if self.record_tx.push(record).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
         }
     }
 

@@ -3,7 +3,10 @@
 //! Timing is never asserted: every wait is "until the condition holds, or a generous timeout",
 //! so a loaded 2-core CI machine makes the tests slower, not flaky.
 
+mod cli;
 mod common;
 mod loopback;
+mod openhaptics;
+mod record;
 mod security;
 mod sessions;
