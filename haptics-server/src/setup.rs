@@ -96,12 +96,12 @@ pub fn open_device(cfg: &ServerConfig) -> Result<Box<dyn Device>, DeviceError> {
         }
         DeviceKind::Hid => {
             let profile = match d.hid.profile.as_str() {
-                "layout" => Profile::Layout(Layout::load(
+                "layout" => Profile::Layout(Box::new(Layout::load(
                     d.hid
                         .layout_file
                         .as_deref()
                         .unwrap_or(std::path::Path::new("")),
-                )?),
+                )?)),
                 _ => Profile::SpaceMouse { speed_m_s: 0.1 },
             };
             Box::new(hid::open(d.hid.vendor_id, d.hid.product_id, profile)?)

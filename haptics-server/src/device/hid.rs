@@ -71,7 +71,7 @@ pub enum Profile {
         speed_m_s: f32,
     },
     /// A report-layout force device.
-    Layout(Layout),
+    Layout(Box<Layout>),
 }
 
 /// A HID device with a profile; see the module doc.

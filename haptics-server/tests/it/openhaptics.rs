@@ -70,10 +70,12 @@ async fn the_hd_scheduler_drives_the_servo_loop_and_forces_reach_the_device() {
     // Test hooks the stand-in exports besides the HD API.
     // SAFETY: the stand-in is our own C file; the hooks take/return plain values.
     let lib = unsafe { libloading::Library::new(&path) }.unwrap();
-    let frames: libloading::Symbol<'_, unsafe extern "C" fn() -> std::ffi::c_long> =
-        unsafe { lib.get(b"standin_frames") }.unwrap();
-    let applied: libloading::Symbol<'_, unsafe extern "C" fn(*mut f64)> =
-        unsafe { lib.get(b"standin_force") }.unwrap();
+    // SAFETY: the signature matches `long standin_frames(void)` in hd_standin.c.
+    let frames =
+        unsafe { lib.get::<unsafe extern "C" fn() -> std::ffi::c_long>(b"standin_frames") };
+    // SAFETY: the signature matches `void standin_force(double *)` in hd_standin.c.
+    let applied = unsafe { lib.get::<unsafe extern "C" fn(*mut f64)>(b"standin_force") };
+    let (frames, applied) = (frames.unwrap(), applied.unwrap());
     let read_force = || {
         let mut f = [0f64; 3];
         // SAFETY: writes 3 doubles into `f`.

@@ -68,7 +68,7 @@ fn layout_profile_decodes_encoders_and_encodes_forces() {
     let layout = Layout::from_toml(LAYOUT, "rig.toml").unwrap();
     // x = 1000 counts = 10 mm, y = −500 = −5 mm, z = 0; button 0b101; then a foreign report.
     let io = reports(&[&[1, 0xe8, 0x03, 0x0c, 0xfe, 0, 0, 0b101], &[9, 1, 2, 3]]);
-    let mut dev = HidDevice::new(io, Profile::Layout(layout), "bench rig");
+    let mut dev = HidDevice::new(io, Profile::Layout(Box::new(layout)), "bench rig");
     assert_eq!((dev.info().dof_output, dev.info().max_force_n), (3, 2.0));
     let s = dev.read(0).unwrap();
     assert!(
