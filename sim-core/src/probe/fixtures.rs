@@ -68,7 +68,8 @@ pub fn fig4_force(radius: f64, h: f64, surface_stiffness: f64) -> f64 {
 pub struct Sweep {
     /// Largest `|F(x_{k+1}) − F(x_k)| / |x_{k+1} − x_k|` along the path, N/mm.
     pub max_jump_n_per_mm: f64,
-    /// Largest turn of the force direction between consecutive non-zero forces, degrees/mm.
+    /// Largest turn of the force direction per mm between consecutive forces that both exceed
+    /// [`TURN_FLOOR`] of the peak (a direction of a vanishing force is not felt), degrees/mm.
     pub max_turn_deg_per_mm: f64,
     /// Largest force magnitude, N.
     pub peak_n: f64,
@@ -76,8 +77,12 @@ pub struct Sweep {
     pub min_along_watch_n: f64,
 }
 
+/// Forces below this fraction of the sweep's peak do not count for [`Sweep::max_turn_deg_per_mm`].
+pub const TURN_FLOOR: f64 = 0.05;
+
 /// Move the probe's centre in `steps` equal steps from `from` to `to` (static, zero velocity)
 /// and record the force continuity; `watch` is a direction whose sign change means reversal.
+/// Allocates the force record (a measurement, not a haptic-rate call).
 pub fn sweep(
     renderer: &mut ProbeRenderer,
     probe: &Probe,
@@ -90,39 +95,43 @@ pub fn sweep(
     let steps = steps.max(1);
     let step_mm = (to - from).length() / steps as f64 * 1e3;
     let mut probe = *probe;
-    let mut prev: Option<DVec3> = None;
-    let mut last_dir: Option<(DVec3, usize)> = None;
+    let orientation = probe.pose().orientation;
+    let forces: Vec<DVec3> = (0..=steps)
+        .map(|k| {
+            let position = from.lerp(to, k as f64 / steps as f64);
+            match probe.set_pose(ProbePose {
+                position,
+                orientation,
+            }) {
+                Ok(()) => renderer.query(&probe, grid, DVec3::ZERO).force,
+                Err(_) => DVec3::ZERO,
+            }
+        })
+        .collect();
+    let peak_n = forces.iter().fold(0.0f64, |m, f| m.max(f.length()));
     let mut out = Sweep {
         max_jump_n_per_mm: 0.0,
         max_turn_deg_per_mm: 0.0,
-        peak_n: 0.0,
-        min_along_watch_n: 0.0,
+        peak_n,
+        min_along_watch_n: forces.iter().fold(0.0f64, |m, f| m.min(f.dot(watch))),
     };
-    for k in 0..=steps {
-        let c = from.lerp(to, k as f64 / steps as f64);
-        let pose = ProbePose {
-            position: c,
-            orientation: probe.pose().orientation,
-        };
-        if probe.set_pose(pose).is_err() {
+    let floor = TURN_FLOOR * peak_n;
+    let mut last: Option<(DVec3, usize)> = None;
+    for (k, f) in forces.iter().enumerate() {
+        if k > 0 {
+            let jump = (*f - forces[k - 1]).length() / step_mm;
+            out.max_jump_n_per_mm = out.max_jump_n_per_mm.max(jump);
+        }
+        if f.length() < floor || f.length() == 0.0 {
             continue;
         }
-        let f = renderer.query(&probe, grid, DVec3::ZERO).force;
-        if let Some(p) = prev {
-            out.max_jump_n_per_mm = out.max_jump_n_per_mm.max((f - p).length() / step_mm);
+        let d = f.normalize();
+        if let Some((e, at)) = last {
+            let turn = d.dot(e).clamp(-1.0, 1.0).acos().to_degrees();
+            let per_mm = turn / (step_mm * (k - at) as f64);
+            out.max_turn_deg_per_mm = out.max_turn_deg_per_mm.max(per_mm);
         }
-        if let Some(d) = f.try_normalize() {
-            if let Some((e, at)) = last_dir {
-                let turn = d.dot(e).clamp(-1.0, 1.0).acos().to_degrees();
-                out.max_turn_deg_per_mm = out
-                    .max_turn_deg_per_mm
-                    .max(turn / (step_mm * (k - at) as f64));
-            }
-            last_dir = Some((d, k));
-        }
-        out.peak_n = out.peak_n.max(f.length());
-        out.min_along_watch_n = out.min_along_watch_n.min(f.dot(watch));
-        prev = Some(f);
+        last = Some((d, k));
     }
     out
 }

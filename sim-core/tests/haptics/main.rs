@@ -4,5 +4,6 @@
 
 mod bspline;
 mod field;
+mod plots;
 mod probe;
 mod reaction;

@@ -1,0 +1,239 @@
+//! The figures of docs/BENCHMARKS.md § Haptic rendering. Ignored by default (they write files):
+//! `cargo test --release -p sim-core --test haptics -- --ignored plots`. Font: DejaVu Sans or
+//! `PLOT_FONT=/path/to/font.ttf`.
+
+use glam::DVec3;
+use plotters::prelude::*;
+use sim_core::bspline_surface::{BicubicPatch, MeshParams, ProbeSculptor};
+use sim_core::haptic::fixtures::{AnalyticField, force_errors};
+use sim_core::probe::fixtures::{edge, fig4_force, sheet};
+use sim_core::probe::{
+    ContactParams, DirectionMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+};
+
+type Res = Result<(), Box<dyn std::error::Error>>;
+
+fn out(name: &str) -> String {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/plots");
+    std::fs::create_dir_all(dir).expect("docs/plots");
+    format!("{dir}/{name}")
+}
+
+fn font() {
+    let path = std::env::var("PLOT_FONT")
+        .unwrap_or_else(|_| "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf".into());
+    let bytes: &'static [u8] =
+        Box::leak(std::fs::read(&path).expect("plot font").into_boxed_slice());
+    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
+}
+
+const R: f64 = 0.02;
+const KS: f64 = 1.0e6;
+
+fn renderer(method: DirectionMethod) -> ProbeRenderer {
+    ProbeRenderer::new(
+        ContactParams {
+            surface_stiffness: KS,
+            surface_damping: 0.0,
+            method,
+        },
+        8192,
+    )
+    .unwrap()
+}
+
+fn line_chart(
+    path: &str,
+    title: &str,
+    x: (&str, f64, f64),
+    y: (&str, f64, f64),
+    series: &[(&str, RGBColor, Vec<(f64, f64)>, bool)],
+) -> Res {
+    let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(65)
+        .build_cartesian_2d(x.1..x.2, y.1..y.2)?;
+    chart.configure_mesh().x_desc(x.0).y_desc(y.0).draw()?;
+    for (name, color, pts, dots) in series {
+        let c = *color;
+        if *dots {
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))?
+                .label(*name)
+                .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()));
+        } else {
+            chart
+                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+                .label(*name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
+        }
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+#[test]
+#[ignore = "writes docs/plots; run with --ignored"]
+fn plots() -> Res {
+    font();
+    // Seed 004 Fig. 4: force vs intrusion depth of a sphere probe through a sampled plane.
+    let grid = SampleGrid::new(&sheet(1.2 * R, R / 50.0), R / 4.0)?;
+    let mut r = renderer(DirectionMethod::SurfaceNormal);
+    let (mut measured, mut exact) = (Vec::new(), Vec::new());
+    for k in 0..=80 {
+        let h = R - 2.0 * R * k as f64 / 80.0;
+        let f = r.query(
+            &Probe::sphere(R)?.posed(ProbePose::at(DVec3::new(0.0, 0.0, h)))?,
+            &grid,
+            DVec3::ZERO,
+        );
+        measured.push(((R - h) * 1e3, f.force.length()));
+    }
+    for k in 0..=400 {
+        let h = R - 2.0 * R * k as f64 / 400.0;
+        exact.push(((R - h) * 1e3, fig4_force(R, h, KS)));
+    }
+    let peak = fig4_force(R, 0.0, KS) * 1.1;
+    line_chart(
+        &out("haptics_fig4.png"),
+        "Sphere probe (R = 20 mm) through a plane (seed 004 Fig. 4)",
+        ("intrusion depth (mm)", 0.0, 40.0),
+        ("force (N)", 0.0, peak),
+        &[
+            ("closed form", BLUE, exact, false),
+            ("distributed springs, R/50 samples", RED, measured, true),
+        ],
+    )?;
+
+    // Continuity: through a sheet (F_z) and across an edge (force angle from +z).
+    let sheet_grid = SampleGrid::new(&sheet(1.5 * R, R / 25.0), R / 3.0)?;
+    let edge_grid = SampleGrid::new(&edge(3.0 * R, R / 25.0), R / 3.0)?;
+    let mut through = Vec::new();
+    let mut across = Vec::new();
+    for (name, m, color) in [
+        ("surface normal", DirectionMethod::SurfaceNormal, BLUE),
+        ("probe normal", DirectionMethod::ProbeNormal, RED),
+    ] {
+        let mut rr = renderer(m);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for k in 0..=440 {
+            let z = 1.1 * R - 2.2 * R * k as f64 / 440.0;
+            let p = Probe::sphere(R)?.posed(ProbePose::at(DVec3::new(0.003, 0.002, z)))?;
+            a.push((z * 1e3, rr.query(&p, &sheet_grid, DVec3::ZERO).force.z));
+        }
+        for k in 0..=540 {
+            let x = -1.5 * R + 2.7 * R * k as f64 / 540.0;
+            let p = Probe::sphere(R)?.posed(ProbePose::at(DVec3::new(x, 0.0, 0.9 * R)))?;
+            let f = rr.query(&p, &edge_grid, DVec3::ZERO).force;
+            if f.length() > 0.0 {
+                b.push((x * 1e3, f.x.atan2(f.z).to_degrees()));
+            }
+        }
+        through.push((name, color, a, false));
+        across.push((name, color, b, false));
+    }
+    let fmax = peak;
+    line_chart(
+        &out("haptics_through_sheet.png"),
+        "Probe centre passing through a sheet: normal force",
+        ("probe centre height above the sheet (mm)", -22.0, 22.0),
+        ("F_z (N)", -fmax, fmax),
+        &through,
+    )?;
+    line_chart(
+        &out("haptics_edge.png"),
+        "Probe sliding over a 90° edge (2 mm deep): force direction",
+        ("probe centre x (edge at 0, mm)", -30.0, 24.0),
+        ("angle of F from +z toward +x (°)", -5.0, 95.0),
+        &across,
+    )?;
+
+    // Field-force convergence.
+    let params = sim_core::haptic::FieldContactParams {
+        stiffness: 500.0,
+        damping: 0.0,
+        friction: 0.0,
+        max_search: R,
+        approach_margin: 0.0,
+        validity_radius: 0.002,
+        lifetime_s: 0.05,
+    };
+    let mut conv = Vec::new();
+    for (field, color) in [
+        (AnalyticField::Sphere { size: R }, BLUE),
+        (AnalyticField::Torus { size: R }, RED),
+    ] {
+        let pts: Vec<(f64, f64)> = [5.0, 10.0, 20.0, 40.0]
+            .iter()
+            .map(|c: &f64| {
+                (
+                    (1.0 / c).log10(),
+                    force_errors(&field, &field.grid(R / c), &params, 500, 3, (0.1, 0.3))
+                        .rel_vector
+                        .log10(),
+                )
+            })
+            .collect();
+        conv.push((field.name(), color, pts, false));
+    }
+    conv.push(("slope 2", BLACK, vec![(-1.6, -3.6), (-0.7, -1.8)], false));
+    line_chart(
+        &out("haptics_convergence.png"),
+        "Field force: max relative error vs grid spacing (depth 0.1–0.3 R)",
+        ("log10(h / R)", -1.7, -0.6),
+        ("log10(max |F − F_ref| / |F_ref|)", -4.0, -0.5),
+        &conv,
+    )?;
+
+    // B-spline dual: bulge profile of a light and a 100× heavier mesh after the same press.
+    let mut prof = Vec::new();
+    for (name, mass, color) in [("light (0.01 kg)", 0.01, RED), ("heavy (1 kg)", 1.0, BLUE)] {
+        let mesh = MeshParams {
+            total_mass: mass,
+            stiffness: 20.0,
+            bending: 2.0,
+            damping_rate: 200.0,
+            plastic_rate: 0.0,
+            pin_border: true,
+        };
+        let contact = ContactParams {
+            surface_stiffness: 5.0e6,
+            surface_damping: 0.0,
+            method: DirectionMethod::SurfaceNormal,
+        };
+        let n = 31;
+        let mut s = ProbeSculptor::new(BicubicPatch::flat(n, 0.05)?, mesh, contact, 0.005, 0.01)?;
+        let mut probe = Probe::sphere(0.008)?;
+        for t in 0..150 {
+            let z = 0.010 - 0.008 * (t as f64 / 50.0).min(1.0);
+            probe.set_pose(ProbePose::at(DVec3::new(0.0, 0.0, z)))?;
+            s.tick(&probe, DVec3::ZERO, true, 0.001)?;
+        }
+        let pts = (0..n)
+            .map(|i| {
+                let p = s.mesh().positions()[i * n + n / 2];
+                (p.x * 1e3, p.z * 1e3)
+            })
+            .collect();
+        prof.push((name, color, pts, false));
+    }
+    line_chart(
+        &out("haptics_bspline_locality.png"),
+        "31×31 dual pressed 6 mm by an 8 mm sphere for 150 ms",
+        ("x along the centre row (mm)", -50.0, 50.0),
+        ("z (mm)", -7.0, 1.0),
+        &prof,
+    )?;
+    Ok(())
+}
