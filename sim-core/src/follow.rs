@@ -7,31 +7,48 @@
 //! `ẋ = −Ḟ ∇F/‖∇F‖²` (`Ḟ` = trilinear `u̇`) and is then Newton-projected onto `F = 0`
 //! (`x ← x − F ∇F/‖∇F‖²`, each step clamped to one grid spacing) so drift cannot accumulate.
 //!
-//! Contract: a point is visited only if it lies in the grid and some corner of its cell has a
-//! non-zero displacement or velocity; every other point is left bit-for-bit unchanged. Results
-//! are finite: a step with a non-finite or vanishing gradient is skipped. No allocation per call
-//! beyond growth of the caller-owned `moved` list.
+//! Cost: `f_base` is expensive (a blend of B-splines), so each point keeps a first-order Taylor
+//! model of it, `f_c + g_c·(x − x_c)`, refreshed (one exact evaluation) whenever the point has
+//! moved more than `taylor_radius` from `x_c`; the model's error is at most
+//! `½ ‖∇²f‖ taylor_radius²` (for a sphere of radius R, `taylor_radius² / 2R`).
+//!
+//! Contract: a point is visited only if it lies in the grid and the field near it changed since
+//! it last moved (`|Δ(x) − Δ_seen| > ε` or `|Ḟ|·Δt > ε`); every other point is left bit-for-bit
+//! unchanged. Results are finite: a step with a non-finite or vanishing gradient is skipped.
+//! No allocation per call once the [`Follower`]'s scratch has grown to the region's point count.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::bspline::eval3;
 use crate::dynamics::DynamicGrid;
 use crate::field::GlobalField;
 
-/// Settings of [`follow`].
+/// Settings of [`Follower::follow`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FollowOptions {
     /// Newton re-projection steps after the Eq. 9 move.
     pub newton_steps: u32,
+    /// A point follows when the displacement at it changed by more than `ε` since it last did,
+    /// or `|Ḟ|·Δt > ε` (m). Implicit solves spread exponentially small displacements over the
+    /// whole band; below `ε` they are not worth moving points for (the error left is < `ε`).
+    pub motion_epsilon: f64,
+    /// Radius (m) within which the Taylor model of `f_base` is reused; 0 evaluates it exactly
+    /// every time.
+    pub taylor_radius: f64,
 }
 
 impl Default for FollowOptions {
     fn default() -> Self {
-        Self { newton_steps: 2 }
+        Self {
+            newton_steps: 1,
+            motion_epsilon: 1e-8,
+            taylor_radius: 5e-4,
+        }
     }
 }
 
-/// What one [`follow`] call did.
+/// What one [`Follower::follow`] call did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FollowReport {
     /// Points visited (in a cell with motion).
@@ -40,11 +57,33 @@ pub struct FollowReport {
     pub max_residual: f64,
     /// Largest distance a point moved.
     pub max_move: f64,
+    /// Exact evaluations of `f_base` (Taylor-model refreshes).
+    pub exact_evaluations: usize,
+}
+
+/// Per-point cache: Taylor model of `f_base` and the displacement last followed.
+#[derive(Debug, Clone, Copy, Default)]
+struct PointCache {
+    valid: bool,
+    x: DVec3,
+    f: f64,
+    g: DVec3,
+    seen: f64,
 }
 
 /// Trilinear displacement, its gradient and the trilinear velocity at `x`; `None` outside the
-/// grid or where every corner of the cell is at rest.
+/// grid or where every corner of the cell is exactly at rest.
 pub fn displacement_at(model: &DynamicGrid, x: DVec3) -> Option<(f64, DVec3, f64)> {
+    displacement_above(model, x, 0.0, 0.0)
+}
+
+/// [`displacement_at`], `None` unless some corner has `|u| > eps` or `|u̇|·dt > eps`.
+pub fn displacement_above(
+    model: &DynamicGrid,
+    x: DVec3,
+    eps: f64,
+    dt: f64,
+) -> Option<(f64, DVec3, f64)> {
     let spec = model.spec();
     let ([ci, cj, ck], t) = spec.locate(x)?;
     let (u, v) = (model.displacement(), model.velocity());
@@ -54,7 +93,7 @@ pub fn displacement_at(model: &DynamicGrid, x: DVec3) -> Option<(f64, DVec3, f64
         let g = spec.index(ci + (c & 1), cj + ((c >> 1) & 1), ck + ((c >> 2) & 1));
         if let Some(s) = model.slot(g) {
             *slot = (u[s], v[s]);
-            moving |= u[s] != 0.0 || v[s] != 0.0;
+            moving |= u[s].abs() > eps || (v[s] * dt).abs() > eps || (eps == 0.0 && v[s] != 0.0);
         }
     }
     if !moving {
@@ -82,61 +121,147 @@ pub fn sculpted_value(base: &GlobalField, model: &DynamicGrid, x: DVec3) -> (f64
     }
 }
 
-/// Move every candidate point in a moving cell by Eq. 9 over `dt`, re-project it onto `F = 0`,
-/// update its normal, and append its index to `moved` (once per stroke: already-listed points
-/// are skipped via `is_moved`, which the caller sizes to the point count). `candidates` lists the
-/// points worth checking (those inside the region), so cost scales with the region.
-#[allow(clippy::too_many_arguments)]
-pub fn follow(
-    base: &GlobalField,
-    model: &DynamicGrid,
-    candidates: &[u32],
-    points: &mut [DVec3],
-    normals: &mut [DVec3],
-    dt: f64,
-    opts: &FollowOptions,
-    moved: &mut Vec<u32>,
-    is_moved: &mut [bool],
-) -> FollowReport {
-    let mut report = FollowReport::default();
-    let h = model.spec().spacing;
-    for &i in candidates {
-        let i = i as usize;
-        let x0 = points[i];
-        let Some((_, _, fdot)) = displacement_at(model, x0) else {
-            continue;
-        };
-        report.visited += 1;
-        let mut x = x0;
-        let (_, g) = sculpted_value(base, model, x);
-        if let Some(step) = newton_step(-dt * fdot, g, h) {
-            x += step;
-        }
-        let mut f = 0.0;
-        for _ in 0..opts.newton_steps {
-            let (fx, gx) = sculpted_value(base, model, x);
-            f = fx;
-            match newton_step(-fx, gx, h) {
-                Some(step) => x += step,
-                None => break,
-            }
-        }
-        let (fx, gx) = sculpted_value(base, model, x);
-        if fx.abs() <= f.abs() || opts.newton_steps == 0 {
-            f = fx;
-        }
-        report.max_residual = report.max_residual.max(f.abs());
-        report.max_move = report.max_move.max(x.distance(x0));
-        points[i] = x;
-        if let Some(n) = gx.try_normalize() {
-            normals[i] = n;
-        }
-        if !is_moved[i] {
-            is_moved[i] = true;
-            moved.push(i as u32);
+/// Moves points with the field; owns the per-stroke moved list and per-step scratch.
+#[derive(Debug, Clone, Default)]
+pub struct Follower {
+    /// Settings.
+    pub options: FollowOptions,
+    moved: Vec<u32>,
+    is_moved: Vec<bool>,
+    results: Vec<Option<(DVec3, DVec3, f64, bool)>>,
+    cache: Vec<PointCache>,
+}
+
+impl Follower {
+    /// A follower for an object of `points` points.
+    pub fn new(points: usize, options: FollowOptions) -> Self {
+        Self {
+            options,
+            moved: Vec::new(),
+            is_moved: vec![false; points],
+            results: Vec::new(),
+            cache: Vec::new(),
         }
     }
-    report
+
+    /// Points moved since the last [`Follower::clear_moved`] (each once).
+    pub fn moved(&self) -> &[u32] {
+        &self.moved
+    }
+
+    /// Start a new stroke's moved list; forget the Taylor models (the base field changed).
+    pub fn clear_moved(&mut self) {
+        self.cache.clear();
+        for &i in &self.moved {
+            self.is_moved[i as usize] = false;
+        }
+        self.moved.clear();
+    }
+
+    /// Move every candidate point in a moving cell by Eq. 9 over `dt`, re-project it onto
+    /// `F = 0`, update its normal, and remember it as moved. `candidates` lists the points worth
+    /// checking (those inside the region), so cost scales with the region. Points are processed
+    /// in parallel, each independently, so the result does not depend on the thread count.
+    pub fn follow(
+        &mut self,
+        base: &GlobalField,
+        model: &DynamicGrid,
+        candidates: &[u32],
+        points: &mut [DVec3],
+        normals: &mut [DVec3],
+        dt: f64,
+    ) -> FollowReport {
+        let opts = self.options;
+        self.results.resize(candidates.len(), None);
+        self.cache.resize(candidates.len(), PointCache::default());
+        {
+            let (pts, nrm) = (&*points, &*normals);
+            self.results
+                .par_iter_mut()
+                .zip(self.cache.par_iter_mut())
+                .zip(candidates.par_iter())
+                .with_min_len(64)
+                .for_each(|((out, cache), &i)| {
+                    let i = i as usize;
+                    *out = follow_point(base, model, cache, pts[i], nrm[i], dt, &opts);
+                });
+        }
+        let mut report = FollowReport::default();
+        for (r, &i) in self.results.iter().zip(candidates) {
+            let Some((x, n, residual, exact)) = *r else {
+                continue;
+            };
+            let i = i as usize;
+            report.visited += 1;
+            report.exact_evaluations += usize::from(exact);
+            report.max_residual = report.max_residual.max(residual);
+            report.max_move = report.max_move.max(x.distance(points[i]));
+            points[i] = x;
+            normals[i] = n;
+            if !self.is_moved[i] {
+                self.is_moved[i] = true;
+                self.moved.push(i as u32);
+            }
+        }
+        report
+    }
+}
+
+/// One point's update: `None` when the field near it has not changed. The Eq. 9 predictor uses
+/// the stored unit normal (the field is distance-like, `‖∇F‖ ≈ 1`; Newton corrects the rest),
+/// then `newton_steps` Newton steps on `F`, then one evaluation for the normal and residual.
+/// The flag says whether `f_base` was evaluated exactly.
+fn follow_point(
+    base: &GlobalField,
+    model: &DynamicGrid,
+    cache: &mut PointCache,
+    x0: DVec3,
+    n0: DVec3,
+    dt: f64,
+    opts: &FollowOptions,
+) -> Option<(DVec3, DVec3, f64, bool)> {
+    let here = displacement_at(model, x0);
+    let (d0, fdot) = here.map_or((0.0, 0.0), |(d, _, v)| (d, v));
+    if here.is_none() && cache.seen == 0.0 {
+        return None;
+    }
+    if (d0 - cache.seen).abs() <= opts.motion_epsilon && (fdot * dt).abs() <= opts.motion_epsilon {
+        return None;
+    }
+    let h = model.spec().spacing;
+    let mut exact = false;
+    let mut eval = |x: DVec3| -> (f64, DVec3) {
+        if !cache.valid || x.distance(cache.x) > opts.taylor_radius {
+            let (f, g) = base.value_and_gradient(x);
+            *cache = PointCache {
+                valid: true,
+                x,
+                f,
+                g,
+                seen: cache.seen,
+            };
+            exact = true;
+        }
+        let fb = cache.f + cache.g.dot(x - cache.x);
+        match displacement_at(model, x) {
+            Some((d, dg, _)) => (fb + d, cache.g + dg),
+            None => (fb, cache.g),
+        }
+    };
+    let mut x = x0;
+    if let Some(step) = newton_step(-dt * fdot, n0, h) {
+        x += step;
+    }
+    for _ in 0..opts.newton_steps {
+        let (fx, gx) = eval(x);
+        match newton_step(-fx, gx, h) {
+            Some(step) => x += step,
+            None => break,
+        }
+    }
+    let (f, g) = eval(x);
+    cache.seen = displacement_at(model, x).map_or(0.0, |(d, _, _)| d);
+    Some((x, g.try_normalize().unwrap_or(n0), f.abs(), exact))
 }
 
 /// `δ ∇F/‖∇F‖²` clamped to length `h`; `None` for a vanishing or non-finite gradient.

@@ -15,7 +15,7 @@ use crate::dynamics::{
     DynamicGrid, DynamicsError, Integrator, NodeParams, StepError, StepReport, Stepper,
 };
 use crate::field::GlobalField;
-use crate::follow::{FollowOptions, FollowReport, follow, refit_moved};
+use crate::follow::{FollowOptions, FollowReport, Follower, refit_moved};
 use crate::grid::{GridError, GridSpec, ScalarGrid};
 use crate::tools::{Rope, ToolError};
 
@@ -47,6 +47,27 @@ pub struct RegionParams {
     pub integrator: Integrator,
     /// Refit moved points' local fields every step (`false`: only at [`Scene::end_stroke`]).
     pub refit_every_step: bool,
+    /// Points follow every this many steps (≥ 1), over the accumulated time: the field runs at
+    /// the haptic rate, points at a display rate. [`Scene::end_stroke`] catches up first.
+    pub follow_every: u32,
+    /// How points follow.
+    pub follow: FollowOptions,
+}
+
+impl RegionParams {
+    /// Defaults around a spacing and band: default nodes, symplectic Euler (stable to ≈ 2.5 ms
+    /// with default nodes), refit at the end of strokes, points following every step.
+    pub fn new(spacing: f64, band: f64) -> Self {
+        Self {
+            spacing,
+            band,
+            node: NodeParams::default(),
+            integrator: Integrator::SymplecticEuler,
+            refit_every_step: false,
+            follow_every: 1,
+            follow: FollowOptions::default(),
+        }
+    }
 }
 
 /// Why a scene operation failed.
@@ -80,9 +101,10 @@ pub struct Region {
     stepper: Stepper,
     base: GlobalField,
     inside: Vec<u32>,
-    moved: Vec<u32>,
-    is_moved: Vec<bool>,
+    follower: Follower,
     samples: Vec<f64>,
+    pending_dt: f64,
+    steps: u64,
     params: RegionParams,
 }
 
@@ -107,14 +129,53 @@ impl Region {
         &self.inside
     }
 
+    /// Let the points follow over the time accumulated since they last did.
+    fn catch_up(&mut self, obj: &mut SceneObject) -> FollowReport {
+        let dt = std::mem::take(&mut self.pending_dt);
+        if dt == 0.0 {
+            return FollowReport::default();
+        }
+        self.follower.follow(
+            &self.base,
+            &self.model,
+            &self.inside,
+            &mut obj.positions,
+            &mut obj.normals,
+            dt,
+        )
+    }
+
     /// Heap bytes of the simulation state (model + region bookkeeping).
     pub fn memory_bytes(&self) -> usize {
         self.model.memory_bytes()
             + self.inside.capacity() * 4
-            + self.moved.capacity() * 4
-            + self.is_moved.capacity()
+            + self.follower.moved().len() * 4
             + self.samples.capacity() * 8
     }
+}
+
+/// The stages of [`Scene::step_observed`], in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SculptStage {
+    /// Forces cleared and tools applied.
+    Tools,
+    /// The integrator step.
+    Integrate,
+    /// Points followed the field.
+    Follow,
+    /// Local fields refitted (only with `refit_every_step`).
+    Refit,
+}
+
+/// Told when each stage of a step ends (the workstation times stages with it; sim-core reads
+/// no clock).
+pub trait StepObserver {
+    /// `stage` just finished.
+    fn stage_done(&mut self, stage: SculptStage);
+}
+
+impl StepObserver for () {
+    fn stage_done(&mut self, _stage: SculptStage) {}
 }
 
 /// What [`Scene::step`] did.
@@ -191,9 +252,10 @@ impl Scene {
             stepper: Stepper::new(params.integrator),
             base: field,
             inside,
-            moved: Vec::new(),
-            is_moved: vec![false; obj.positions.len()],
+            follower: Follower::new(obj.positions.len(), params.follow),
             samples: Vec::new(),
+            pending_dt: 0.0,
+            steps: 0,
             params,
         });
         Ok(())
@@ -201,6 +263,16 @@ impl Scene {
 
     /// One step: clear forces, apply `ropes`, integrate `dt`, let points follow.
     pub fn step(&mut self, dt: f64, ropes: &[Rope]) -> Result<SculptStepReport, SceneError> {
+        self.step_observed(dt, ropes, &mut ())
+    }
+
+    /// [`Scene::step`], telling `observer` as each stage ends.
+    pub fn step_observed(
+        &mut self,
+        dt: f64,
+        ropes: &[Rope],
+        observer: &mut dyn StepObserver,
+    ) -> Result<SculptStepReport, SceneError> {
         let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
         let obj = &mut self.objects[region.object];
         region.model.clear_forces();
@@ -208,26 +280,25 @@ impl Scene {
         for rope in ropes {
             tool_nodes += rope.apply(&mut region.model)?;
         }
+        observer.stage_done(SculptStage::Tools);
         let step = region.stepper.step(&mut region.model, dt)?;
-        let follow = follow(
-            &region.base,
-            &region.model,
-            &region.inside,
-            &mut obj.positions,
-            &mut obj.normals,
-            dt,
-            &FollowOptions::default(),
-            &mut region.moved,
-            &mut region.is_moved,
-        );
-        if region.params.refit_every_step {
-            refit_moved(
-                &region.base,
-                &mut obj.field,
-                &region.model,
-                &region.moved,
-                &mut region.samples,
-            );
+        observer.stage_done(SculptStage::Integrate);
+        region.pending_dt += dt;
+        region.steps += 1;
+        let mut follow = FollowReport::default();
+        if region.steps % u64::from(region.params.follow_every.max(1)) == 0 {
+            follow = region.catch_up(obj);
+            observer.stage_done(SculptStage::Follow);
+            if region.params.refit_every_step {
+                refit_moved(
+                    &region.base,
+                    &mut obj.field,
+                    &region.model,
+                    region.follower.moved(),
+                    &mut region.samples,
+                );
+                observer.stage_done(SculptStage::Refit);
+            }
         }
         Ok(SculptStepReport {
             step,
@@ -241,20 +312,18 @@ impl Scene {
     pub fn end_stroke(&mut self) -> Result<usize, SceneError> {
         let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
         let obj = &mut self.objects[region.object];
+        region.catch_up(obj);
         refit_moved(
             &region.base,
             &mut obj.field,
             &region.model,
-            &region.moved,
+            region.follower.moved(),
             &mut region.samples,
         );
         region.model.commit();
         region.base = obj.field.clone();
-        let n = region.moved.len();
-        for &i in &region.moved {
-            region.is_moved[i as usize] = false;
-        }
-        region.moved.clear();
+        let n = region.follower.moved().len();
+        region.follower.clear_moved();
         Ok(n)
     }
 

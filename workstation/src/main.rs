@@ -24,6 +24,8 @@ enum Command {
     Status,
     /// Fit points (a file or gen:sphere:R:N) into an implicit surface; time it, measure its error.
     Fit(workstation::fit::FitArgs),
+    /// Time one sculpting step per stage (tools, integrator, points, publish) with its field error.
+    BenchSim(workstation::bench_sim::BenchSimArgs),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +45,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(args) => {
             let report = workstation::fit::run(&args)?;
             workstation::fit::print(&report, args.json)
+        }
+        Command::BenchSim(args) => {
+            let report = workstation::bench_sim::run(&args)?;
+            workstation::bench_sim::print(&report, args.json)
         }
         Command::Status => {
             workstation::status::print();

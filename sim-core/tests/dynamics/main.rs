@@ -4,3 +4,4 @@
 mod common;
 mod integrators;
 mod rope;
+mod scene;

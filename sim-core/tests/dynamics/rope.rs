@@ -27,7 +27,7 @@ fn region() -> RegionParams {
             anchor: ANCHOR,
         },
         integrator: Integrator::backward_euler(),
-        refit_every_step: false,
+        ..RegionParams::new(0.0125, 0.08)
     }
 }
 
