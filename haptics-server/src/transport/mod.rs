@@ -12,19 +12,20 @@
 //! only accepted `ForceCommand`s reach the servo ring, rejects are counted by reason.
 
 pub mod quic;
+pub mod session;
 pub mod udp;
+
+pub use session::{HotKind, read_control, serve_control, write_control};
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use protocol::control::{ClockPong, ControlError, ErrorCode, ErrorMessage, Stats, Welcome};
-use protocol::{Body, Control, FrameDecoder, Inbound, PROTOCOL_VERSION, SessionKey};
-use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use protocol::control::{ControlError, Stats};
+use protocol::{Body, Inbound, SessionKey};
 
 use crate::clock::MonoClock;
 use crate::device::DeviceInfo;
-use crate::servo::SessionEvent;
 use crate::servo::driver::{ServoLink, ServoMsg};
 use crate::telemetry::ServoStats;
 
@@ -263,239 +264,5 @@ impl HotState {
             }
             _ => false,
         }
-    }
-}
-
-/// Write one control message.
-pub async fn write_control<W: AsyncWrite + Unpin>(
-    wr: &mut W,
-    msg: &Control,
-) -> std::io::Result<()> {
-    wr.write_all(&msg.to_frame()).await?;
-    wr.flush().await
-}
-
-/// Read the next control message; `Ok(None)` when the stream closed cleanly.
-pub async fn read_control<R: AsyncRead + Unpin>(
-    rd: &mut R,
-    dec: &mut FrameDecoder,
-) -> Result<Option<Control>, TransportError> {
-    let mut buf = [0u8; 4096];
-    loop {
-        if let Some(msg) = dec.next_message()? {
-            return Ok(Some(msg));
-        }
-        let n = rd.read(&mut buf).await?;
-        if n == 0 {
-            return Ok(None);
-        }
-        dec.push(&buf[..n]);
-    }
-}
-
-fn error(code: ErrorCode, message: impl Into<String>) -> Control {
-    Control::Error(ErrorMessage {
-        code,
-        message: message.into(),
-    })
-}
-
-/// How a session's hot path is keyed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum HotKind {
-    /// UDP: MAC'd with a fresh session key.
-    Udp,
-    /// QUIC datagrams: no MAC (TLS protects them).
-    Quic,
-}
-
-/// Run one control conversation (see the module doc). `on_start` is called once the session
-/// is up (QUIC spawns its datagram reader there). Returns the session's hot state, if one
-/// was started, after it ended.
-pub async fn serve_control<R, W>(
-    shared: &Arc<Shared>,
-    rd: &mut R,
-    wr: &mut W,
-    kind: HotKind,
-    on_start: impl FnOnce(Arc<HotState>),
-) -> Result<Option<Arc<HotState>>, TransportError>
-where
-    R: AsyncRead + Unpin,
-    W: AsyncWrite + Unpin,
-{
-    let mut dec = FrameDecoder::new();
-    let hello =
-        match tokio::time::timeout(shared.net.hello_timeout, read_control(rd, &mut dec)).await {
-            Err(_) => return Err(TransportError::Timeout("Hello")),
-            Ok(Err(TransportError::Control(e))) => {
-                write_control(wr, &error(ErrorCode::InvalidMessage, e.to_string())).await?;
-                return Err(e.into());
-            }
-            Ok(r) => r?,
-        };
-    let hello = match hello {
-        Some(Control::Hello(h)) => h,
-        None => return Ok(None),
-        Some(other) => {
-            let msg = format!("expected Hello, got {}", name(&other));
-            write_control(wr, &error(ErrorCode::UnexpectedMessage, msg)).await?;
-            return Ok(None);
-        }
-    };
-    if hello.protocol_version != PROTOCOL_VERSION {
-        let msg = format!(
-            "server speaks protocol version {PROTOCOL_VERSION}, client {}",
-            hello.protocol_version
-        );
-        write_control(wr, &error(ErrorCode::VersionMismatch, msg)).await?;
-        return Ok(None);
-    }
-    let key = match kind {
-        HotKind::Udp => {
-            let mut k = [0u8; 32];
-            getrandom::fill(&mut k).map_err(|e| std::io::Error::other(e.to_string()))?;
-            Some(SessionKey::from_bytes(k))
-        }
-        HotKind::Quic => None,
-    };
-    let Some(hot) = shared.claim(key.clone()) else {
-        shared.refused_busy.fetch_add(1, Ordering::Relaxed);
-        tracing::warn!(client = %hello.client_name, "refused: another workstation holds the session");
-        let msg = "busy: another workstation holds the session; one at a time";
-        write_control(wr, &error(ErrorCode::Busy, msg)).await?;
-        return Ok(None);
-    };
-    let d = &shared.device;
-    let welcome = Welcome {
-        protocol_version: PROTOCOL_VERSION,
-        device_name: d.name.chars().take(100).collect(),
-        dof_input: d.dof_input,
-        dof_output: d.dof_output,
-        workspace_min: d.workspace_min.to_array(),
-        workspace_max: d.workspace_max.to_array(),
-        max_force_n: shared.max_force_n,
-        max_stiffness_n_per_m: d.max_stiffness_n_per_m,
-        servo_rate_hz: shared.servo_rate_hz,
-        session_id: hot.session,
-        session_key: key.as_ref().map_or([0; 32], |k| *k.as_bytes()),
-    };
-    shared.sessions_started.fetch_add(1, Ordering::Relaxed);
-    shared.servo(ServoMsg::Start {
-        session: hot.session,
-        key,
-    });
-    tracing::info!(client = %hello.client_name, session = format_args!("{:#010x}", hot.session), "session started");
-    let result = async {
-        write_control(wr, &Control::Welcome(welcome)).await?;
-        on_start(Arc::clone(&hot));
-        session_loop(shared, rd, wr, &hot, dec).await
-    }
-    .await;
-    let s = shared.stats(Some(&hot));
-    shared.release(&hot);
-    let rejected: Vec<_> = s.rejected.nonzero().collect();
-    match &result {
-        Ok(reason) => tracing::info!(
-            session = format_args!("{:#010x}", hot.session),
-            packets_in = s.packets_in,
-            packets_out = s.packets_out,
-            ?rejected,
-            "session ended: {reason}"
-        ),
-        Err(e) => tracing::warn!(
-            session = format_args!("{:#010x}", hot.session),
-            packets_in = s.packets_in,
-            ?rejected,
-            "session ended: {e}"
-        ),
-    }
-    result.map(|_| Some(hot))
-}
-
-async fn session_loop<R, W>(
-    shared: &Arc<Shared>,
-    rd: &mut R,
-    wr: &mut W,
-    hot: &Arc<HotState>,
-    mut dec: FrameDecoder,
-) -> Result<String, TransportError>
-where
-    R: AsyncRead + Unpin,
-    W: AsyncWrite + Unpin,
-{
-    let mut buf = [0u8; 4096];
-    let mut check = tokio::time::interval(Duration::from_millis(20));
-    let mut last_stats = tokio::time::Instant::now();
-    loop {
-        loop {
-            let msg = match dec.next_message() {
-                Ok(Some(m)) => m,
-                Ok(None) => break,
-                Err(e @ ControlError::FrameTooLarge { .. }) => return Err(e.into()),
-                Err(e) => {
-                    write_control(wr, &error(ErrorCode::InvalidMessage, e.to_string())).await?;
-                    continue;
-                }
-            };
-            let t1 = shared.clock.now_ns();
-            hot.last_activity_ns.store(t1, Ordering::Release);
-            match msg {
-                Control::ClockPing(p) => {
-                    let pong = ClockPong {
-                        id: p.id,
-                        t0_ns: p.t0_ns,
-                        t1_ns: t1,
-                        t2_ns: shared.clock.now_ns(),
-                    };
-                    write_control(wr, &Control::ClockPong(pong)).await?;
-                }
-                Control::Config(c) => shared.servo(ServoMsg::Core(SessionEvent::Config(c))),
-                Control::EmergencyStop(e) => {
-                    tracing::warn!(engage = e.engage, "emergency stop from the workstation");
-                    shared.servo(ServoMsg::Core(SessionEvent::EmergencyStop(e.engage)));
-                }
-                Control::Bye(b) => return Ok(format!("bye from client: {}", b.reason)),
-                other => {
-                    let msg = format!("{} is not expected during a session", name(&other));
-                    write_control(wr, &error(ErrorCode::UnexpectedMessage, msg)).await?;
-                }
-            }
-        }
-        tokio::select! {
-            n = rd.read(&mut buf) => {
-                let n = n?;
-                if n == 0 {
-                    return Ok("control channel closed by the client".into());
-                }
-                dec.push(&buf[..n]);
-            }
-            _ = check.tick() => {
-                let idle = shared.clock.now_ns().saturating_sub(hot.last_activity_ns.load(Ordering::Acquire));
-                if idle > u64::try_from(shared.net.idle_timeout.as_nanos()).unwrap_or(u64::MAX) {
-                    let reason = format!("idle timeout: nothing from the workstation for {} ms", idle / 1_000_000);
-                    let bye = Control::Bye(protocol::control::Bye { reason: reason.clone() });
-                    let _ = tokio::time::timeout(Duration::from_millis(200), write_control(wr, &bye)).await;
-                    return Ok(reason);
-                }
-                if last_stats.elapsed() >= shared.net.stats_interval {
-                    last_stats = tokio::time::Instant::now();
-                    write_control(wr, &Control::Stats(shared.stats(Some(hot)))).await?;
-                }
-            }
-        }
-    }
-}
-
-fn name(msg: &Control) -> &'static str {
-    match msg {
-        Control::Hello(_) => "Hello",
-        Control::Welcome(_) => "Welcome",
-        Control::ClockPing(_) => "ClockPing",
-        Control::ClockPong(_) => "ClockPong",
-        Control::Config(_) => "Config",
-        Control::Stats(_) => "Stats",
-        Control::EmergencyStop(_) => "EmergencyStop",
-        Control::Bye(_) => "Bye",
-        Control::Error(_) => "Error",
     }
 }

@@ -11,19 +11,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::server::TransportKind;
 
-/// Which device backend.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum DeviceKind {
-    /// Simulated stylus and hand (closed loop, deterministic).
-    Fake,
-    /// A recorded session (`--record`).
-    Replay,
-    /// A HID device through hidapi (SpaceMouse-class input or a report-layout profile).
-    Hid,
-    /// A Touch/Phantom through the vendor's OpenHaptics HD library, loaded at run time.
-    Openhaptics,
-}
+mod device;
+
+pub use device::{
+    DeviceKind, DeviceSection, FakeSection, HidSection, OpenHapticsSection, ReplaySection,
+};
 
 /// The whole configuration file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -136,120 +128,6 @@ impl Default for NetworkSection {
             key: None,
             idle_timeout_ms: 2000,
             stats_interval_ms: 1000,
-        }
-    }
-}
-
-/// `[device]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct DeviceSection {
-    /// Backend.
-    pub kind: DeviceKind,
-    /// `[device.fake]`.
-    pub fake: FakeSection,
-    /// `[device.replay]`.
-    pub replay: ReplaySection,
-    /// `[device.hid]`.
-    pub hid: HidSection,
-    /// `[device.openhaptics]`.
-    pub openhaptics: OpenHapticsSection,
-}
-
-impl Default for DeviceSection {
-    fn default() -> Self {
-        Self {
-            kind: DeviceKind::Fake,
-            fake: FakeSection::default(),
-            replay: ReplaySection::default(),
-            hid: HidSection::default(),
-            openhaptics: OpenHapticsSection::default(),
-        }
-    }
-}
-
-/// `[device.fake]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct FakeSection {
-    /// `idle`, `circle`, `line`, `press` or `file`.
-    pub path: String,
-    /// Path file for `path = "file"` (lines `t_s x y z`).
-    pub path_file: Option<PathBuf>,
-    /// Tremor seed.
-    pub seed: u64,
-    /// Circle radius / line half-length / press depth, m.
-    pub size_m: f32,
-    /// Seconds per circle, line stroke or press cycle.
-    pub period_s: f32,
-    /// Tremor amplitude, m.
-    pub tremor_m: f32,
-}
-
-impl Default for FakeSection {
-    fn default() -> Self {
-        Self {
-            path: "circle".into(),
-            path_file: None,
-            seed: 1,
-            size_m: 0.02,
-            period_s: 4.0,
-            tremor_m: 2e-5,
-        }
-    }
-}
-
-/// `[device.replay]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-#[serde(default, deny_unknown_fields)]
-pub struct ReplaySection {
-    /// The recording to play.
-    pub file: Option<PathBuf>,
-    /// Start again at the end.
-    #[serde(rename = "loop")]
-    pub looped: bool,
-}
-
-/// `[device.hid]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct HidSection {
-    /// `spacemouse` or `layout`.
-    pub profile: String,
-    /// Report-layout file for `profile = "layout"`.
-    pub layout_file: Option<PathBuf>,
-    /// USB vendor id (omit: the first matching device).
-    pub vendor_id: Option<u16>,
-    /// USB product id.
-    pub product_id: Option<u16>,
-}
-
-impl Default for HidSection {
-    fn default() -> Self {
-        Self {
-            profile: "spacemouse".into(),
-            layout_file: None,
-            vendor_id: None,
-            product_id: None,
-        }
-    }
-}
-
-/// `[device.openhaptics]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct OpenHapticsSection {
-    /// The HD library to load (a name searched by the dynamic loader, or a path).
-    pub library: String,
-    /// Device name passed to `hdInitDevice` (empty: the default device).
-    pub device_name: String,
-}
-
-impl Default for OpenHapticsSection {
-    fn default() -> Self {
-        Self {
-            library: "libHD.so".into(),
-            device_name: String::new(),
         }
     }
 }
@@ -420,50 +298,4 @@ impl ServerConfig {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn defaults_are_valid_and_round_trip() {
-        let c = ServerConfig::default();
-        c.validate().unwrap();
-        let text = toml::to_string(&c).unwrap();
-        assert_eq!(ServerConfig::from_toml(&text, "x").unwrap(), c);
-    }
-
-    #[test]
-    fn errors_name_the_field() {
-        let c = ServerConfig::from_toml("[safety]\nwatchdog_zero_ms = 10\n", "c.toml").unwrap();
-        let e = c.validate().unwrap_err().to_string();
-        assert!(
-            e.contains("safety.watchdog_zero_ms") && e.contains("exceed"),
-            "{e}"
-        );
-        let e = ServerConfig::from_toml("[servo]\nrate = 5\n", "c.toml")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("c.toml") && e.contains("rate"), "{e}");
-        let e = ServerConfig::from_toml("[servo]\nrate_hz = \"fast\"\n", "c.toml")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("rate_hz"), "{e}");
-        let c = ServerConfig::from_toml("[servo]\nrate_hz = 50\n", "c.toml").unwrap();
-        assert!(
-            c.validate()
-                .unwrap_err()
-                .to_string()
-                .contains("servo.rate_hz")
-        );
-    }
-
-    #[test]
-    fn the_example_config_parses_and_is_valid() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../deploy/haptics-server.example.toml"
-        );
-        let text = std::fs::read_to_string(path).unwrap();
-        let c = ServerConfig::from_toml(&text, path).unwrap();
-        c.validate().unwrap();
-    }
-}
+mod tests;
