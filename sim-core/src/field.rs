@@ -419,7 +419,8 @@ fn flag_outliers(knn: &KnnGraph, radii: &[f64], ratio: f64, global_median: f64) 
 }
 
 /// Flag points lying off the surface their neighbours agree on: farther from the plane through
-/// the neighbours' centroid (normal: their mean normal) than 0.3 × the median neighbour distance.
+/// the neighbours' centroid (normal: their mean normal) than 0.3 × the median neighbour distance
+/// and than 3 × the neighbours' own RMS distance to that plane (curvature and noise).
 /// Catches outliers a few spacings off the surface, which the density test cannot. Skipped where
 /// the neighbours' normals cancel (a thin shell) or there are fewer than four neighbours.
 fn flag_off_surface(points: &[DVec3], normals: &[DVec3], knn: &KnnGraph, outlier: &mut [bool]) {
@@ -437,10 +438,17 @@ fn flag_off_surface(points: &[DVec3], normals: &[DVec3], knn: &KnnGraph, outlier
             if count < 4 || mean_n.length() < 0.5 * count as f64 {
                 return false;
             }
-            let centroid = centroid / count as f64;
-            let offset = (points[i] - centroid).dot(mean_n.normalize()).abs();
+            let (centroid, axis) = (centroid / count as f64, mean_n.normalize());
+            let offset = (points[i] - centroid).dot(axis).abs();
+            // The neighbours' own spread about that plane (curvature, noise) sets the tolerance.
+            let spread2 = knn.neighbours(i)[1..]
+                .iter()
+                .filter(|&&j| !outlier[j as usize])
+                .map(|&j| (points[j as usize] - centroid).dot(axis).powi(2))
+                .sum::<f64>()
+                / count as f64;
             let d = knn.distances(i);
-            offset > 0.3 * d[d.len() / 2]
+            offset > 0.3 * d[d.len() / 2] && offset > 3.0 * spread2.sqrt()
         })
         .collect();
     for (o, f) in outlier.iter_mut().zip(flags) {

@@ -178,15 +178,22 @@ pub fn fit_local(
             basis3(size, u, v, w, &mut vals, &mut idx);
             // Residual against the planar prior `w − ½` (normalised units).
             let res = target * inv_edge - (w - 0.5);
-            for a in 0..27 {
-                let wa = theta * vals[a];
-                rhs[idx[a]] += wa * res;
-                let row = &mut ata[idx[a] * c..idx[a] * c + c];
-                if size == 3 {
+            if size == 3 {
+                // Dense 27×27 case (the common one): fixed-size rows, so the update vectorises.
+                for a in 0..27 {
+                    let wa = theta * vals[a];
+                    rhs[a] += wa * res;
+                    let row: &mut [f64; 27] =
+                        (&mut ata[a * 27..a * 27 + 27]).try_into().expect("27");
                     for b in a..27 {
                         row[b] += wa * vals[b];
                     }
-                } else {
+                }
+            } else {
+                for a in 0..27 {
+                    let wa = theta * vals[a];
+                    rhs[idx[a]] += wa * res;
+                    let row = &mut ata[idx[a] * c..idx[a] * c + c];
                     for b in a..27 {
                         row[idx[b]] += wa * vals[b];
                     }

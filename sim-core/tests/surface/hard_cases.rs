@@ -147,7 +147,7 @@ fn fewer_neighbours_than_coefficients() {
             ..FitParams::default()
         };
         let rec = fit(&pts, &params, NormalPolicy::Keep);
-        assert_bounded(&rec.field, &pts.positions, 0.5, 20.0);
+        assert_bounded(&rec.field, &pts.positions, 0.5, 3.0);
         eprintln!("k = {k}");
         let e = error(&rec.field, &SPHERE, 10_000);
         // Bound: with so few neighbours the local fields are nearly planar; RMS ≤ 3e-3 R.
@@ -284,10 +284,8 @@ fn outliers_are_rejected() {
             .push(sim_core::sampling::unit_vector(&mut rng));
     }
     let rec = fit(&pts, &FitParams::default(), NormalPolicy::Keep);
-    // Outliers within ~0.4 R of the sphere may be kept (a k-NN density test cannot tell them from
-    // noise) and their
-    // random normals tilt the blend nearby: ‖∇f‖ stays ≤ 10 (measured 7.6).
-    assert_bounded(&rec.field, &pts.positions[..10_000], 0.5, 10.0);
+    // Near the surface ‖∇f‖ ≤ 3 (measured 1.03; ~10 away from it, near kept outliers).
+    assert_bounded(&rec.field, &pts.positions[..10_000], 0.5, 3.0);
     // Bound: all outliers farther than 0.4 R (~10 spacings) from the surface are flagged, and no
     // more than
     // 1% of inliers are.
@@ -332,9 +330,9 @@ fn thin_shell_two_sheets_closer_than_the_spacing() {
         ..FitParams::default()
     };
     let rec = fit(&pts, &params, NormalPolicy::Keep);
-    // Where the sheets' supports overlap the blend mixes opposite fields: the gradient stays
-    // bounded (≤ 100, measured ~25) but not near 1.
-    assert_bounded(&rec.field, &pts.positions, 0.5, 100.0);
+    // Where the sheets' supports overlap the blend mixes opposite fields: near the points the
+    // gradient stays ≤ 10 (measured 5.0) but not near 1.
+    assert_bounded(&rec.field, &pts.positions, 0.5, 10.0);
     // Bound (a weak one, and a known limitation): the sheets survive as a zero set, RMS within
     // the thickness and max within 8 thicknesses of the plate; the inside stays inside.
     let e = error(&rec.field, &plate, 10_000);

@@ -6,3 +6,4 @@ mod field_api;
 mod hard_cases;
 mod io_formats;
 mod meshing;
+mod real_scan;
