@@ -3,7 +3,9 @@
 //! Every subcommand of the `workstation` binary is a module here, so it can be tested
 //! without spawning a process. Library code returns errors; only the binary prints them.
 
+pub mod bench_force;
 pub mod bench_sim;
 pub mod fit;
 pub mod logging;
+pub mod scenes;
 pub mod status;

@@ -26,6 +26,8 @@ enum Command {
     Fit(workstation::fit::FitArgs),
     /// Time one sculpting step per stage (tools, integrator, points, publish) with its field error.
     BenchSim(workstation::bench_sim::BenchSimArgs),
+    /// Time the haptic queries (field force, shaped probe, B-spline sculpt tick) with their force error.
+    BenchForce(workstation::bench_force::BenchForceArgs),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +51,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::BenchSim(args) => {
             let report = workstation::bench_sim::run(&args)?;
             workstation::bench_sim::print(&report, args.json)
+        }
+        Command::BenchForce(args) => {
+            let report = workstation::bench_force::run(&args)?;
+            workstation::bench_force::print(&report, args.json)
         }
         Command::Status => {
             workstation::status::print();

@@ -142,14 +142,15 @@ impl ProbeSculptor {
         let model = match force.try_normalize() {
             Some(normal) if area > 0.0 => {
                 let stiffness = k * area;
+                let offset = force.length() / stiffness;
                 ContactModel {
                     kind: ModelKind::Plane,
-                    point: cursor + normal * (force.length() / stiffness),
+                    point: cursor + normal * offset,
                     normal,
                     stiffness,
                     damping: self.renderer.params().surface_damping * area,
                     friction: 0.0,
-                    validity_radius: self.validity_radius,
+                    validity_radius: self.validity_radius + offset,
                     lifetime_s: self.lifetime_s,
                 }
             }

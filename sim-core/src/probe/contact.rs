@@ -73,8 +73,8 @@ pub struct ProbeForce {
     pub contact_area: f64,
     /// Samples in contact.
     pub contact_count: usize,
-    /// More contacts than the scratch holds: the force counts all, [`ProbeRenderer::contacts`]
-    /// lists only the first ones.
+    /// More contacts than the (non-zero) scratch holds: the force counts all,
+    /// [`ProbeRenderer::contacts`] lists only the first ones.
     pub truncated: bool,
     /// Effective normal stiffness `k_s A` (how the force grows per metre of push), N/m.
     pub stiffness: f64,
@@ -101,7 +101,8 @@ struct Sums {
 }
 
 impl ProbeRenderer {
-    /// A renderer that records up to `max_contacts` contacts per query (all are summed).
+    /// A renderer that records up to `max_contacts` contacts per query (all are summed); `0`
+    /// records none (force only: the fastest surface-normal query).
     pub fn new(params: ContactParams, max_contacts: usize) -> Result<Self, ProbeError> {
         params.validate()?;
         Ok(Self {
@@ -170,8 +171,8 @@ impl ProbeRenderer {
         sums.surface_dir += w * s.normal;
         sums.count += 1;
         let record = self.contacts.len() < self.capacity;
+        sums.truncated |= !record && self.capacity > 0;
         if !record && self.params.method == DirectionMethod::SurfaceNormal {
-            sums.truncated = true;
             return;
         }
         let probe_normal = probe.normal_from_local(q);
@@ -185,8 +186,6 @@ impl ProbeRenderer {
                 exit,
                 probe_normal,
             });
-        } else {
-            sums.truncated = true;
         }
     }
 
@@ -229,7 +228,9 @@ impl ProbeForce {
     /// The local model reproducing this force at the probe centre `cursor`: a plane with normal
     /// `direction`, stiffness `k_s A` and damping `b_s A`, placed `spring / (k_s A)` beyond the
     /// cursor so the server's `k·depth − b·v_n` equals this query's magnitude exactly there.
-    /// Frictionless (the distributed springs are). No contact gives a `None` model.
+    /// Frictionless (the distributed springs are). The server measures validity from `point`, so
+    /// the model's radius is `validity_radius` (about the cursor) plus that offset. No contact
+    /// gives a `None` model.
     pub fn contact_model(
         &self,
         cursor: DVec3,
@@ -241,14 +242,15 @@ impl ProbeForce {
         if self.direction == DVec3::ZERO || self.stiffness <= 0.0 || !cursor.is_finite() {
             return ContactModel::none(lifetime_s);
         }
+        let offset = self.spring / self.stiffness;
         ContactModel {
             kind: ModelKind::Plane,
-            point: cursor + self.direction * (self.spring / self.stiffness),
+            point: cursor + self.direction * offset,
             normal: self.direction,
             stiffness: self.stiffness,
             damping: self.damping,
             friction: 0.0,
-            validity_radius,
+            validity_radius: validity_radius + offset,
             lifetime_s,
         }
     }

@@ -149,10 +149,19 @@ impl Probe {
         if a <= 0.0 || disc.is_nan() || disc <= 0.0 || !a.is_finite() {
             return None;
         }
+        // Roots `big/a` and `c/big` (opposite signs, no cancellation); the nearer one has the
+        // smaller magnitude: |big/a| < |c/big| ⇔ big² < a·|c|. One division; a tie takes the
+        // crossing along +n.
         let big = -(b + disc.sqrt().copysign(b));
-        let (r1, r2) = (big / a, c / big);
-        let (t_pos, t_neg) = if r1 > r2 { (r1, r2) } else { (r2, r1) };
-        Some((if t_pos <= -t_neg { t_pos } else { t_neg }, q))
+        let (lhs, rhs) = (big * big, -a * c);
+        let t = if lhs < rhs {
+            big / a
+        } else if lhs > rhs {
+            c / big
+        } else {
+            (big / a).max(c / big)
+        };
+        Some((t, q))
     }
 
     /// The implicit value `f_p(x)` (dimensionless; negative inside).

@@ -12,6 +12,8 @@ use sim_core::probe::{
 };
 
 type Res = Result<(), Box<dyn std::error::Error>>;
+/// One curve: legend, colour, points, drawn as dots (else a line).
+type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64)>, bool);
 
 fn out(name: &str) -> String {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/plots");
@@ -47,7 +49,7 @@ fn line_chart(
     title: &str,
     x: (&str, f64, f64),
     y: (&str, f64, f64),
-    series: &[(&str, RGBColor, Vec<(f64, f64)>, bool)],
+    series: &[Series<'_>],
 ) -> Res {
     let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE)?;

@@ -366,6 +366,19 @@ fn local_model_reproduces_the_probe_force_at_the_cursor_and_near_it() {
         (model - truth).length() <= 0.05 * (truth - at_rest).length(),
         "{model} vs {truth}"
     );
+    // Deep: the centre 5 mm below the sheet, the equivalent plane depth far beyond the 5 mm
+    // radius; the model still covers the cursor (its radius grows by the offset).
+    let deep = DVec3::new(0.0, 0.0, -0.005);
+    let f = r.query(&sphere_at(deep), &grid, DVec3::ZERO);
+    let cmd = f.output(deep, 0.005, 0.05).to_command(0, 0);
+    let at = ModelRenderer::new()
+        .render(&cmd, deep.as_vec3(), Vec3::ZERO, 0)
+        .as_dvec3();
+    assert!(
+        (at - f.force).length() <= 1e-5 * f.force.length(),
+        "{at} vs {}",
+        f.force
+    );
     let none = r
         .query(&sphere_at(DVec3::new(0.0, 0.0, 1.0)), &grid, DVec3::ZERO)
         .output(c, 0.005, 0.05);

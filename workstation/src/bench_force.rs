@@ -1,0 +1,359 @@
+//! `workstation bench-force`: time the haptic queries of issue 6 and measure, on the same run,
+//! their force error against analytic references (DESIGN §7).
+//!
+//! - Field force: a sphere of radius `--radius` sampled on a grid of spacing `R/--cells`;
+//!   seeded contact points at depths 0.1–0.3 R (friction and damping on, VCP found from
+//!   scratch every query). Error: largest `|F − F_ref|/|F_ref|` against `k·depth·n_exact`.
+//! - Shaped probe: a sphere probe centred on a plane sampled so ≈ `--contacts` samples are in
+//!   contact. Error: against seed 004 Fig. 4 in closed form.
+//! - Continuity: largest force jump (N/mm) and direction turn (°/mm) sweeping a probe through
+//!   a sheet and across a sharp edge, for both direction methods.
+//! - B-spline sculpting: one 1 kHz tick of a 30×30 dual with the probe pressing.
+//!
+//! Each timed query is bracketed by two `Instant::now()` reads (≈20–30 ns of the figure);
+//! `--repeats` runs give the spread of the p99.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use serde::Serialize;
+use sim_core::bspline_surface::{BicubicPatch, MeshParams, ProbeSculptor};
+use sim_core::haptic::fixtures::{AnalyticField, contact_points, force_errors};
+use sim_core::haptic::{FieldContactParams, FieldForce};
+use sim_core::probe::fixtures::{edge, fig4_force, sheet, sweep};
+use sim_core::probe::{
+    ContactParams, DirectionMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+};
+
+/// Parsed arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BenchForceArgs {
+    /// Radius of the analytic sphere field and of the probe, m.
+    #[arg(long, default_value_t = 0.02)]
+    pub radius: f64,
+    /// Grid cells per radius for the field (the issue's bar is R/20).
+    #[arg(long, default_value_t = 20.0)]
+    pub cells: f64,
+    /// Target number of probe contacts.
+    #[arg(long, default_value_t = 2000)]
+    pub contacts: usize,
+    /// Timed queries per run.
+    #[arg(long, default_value_t = 20_000)]
+    pub queries: usize,
+    /// Runs (spread of the p99 across runs).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Percentiles of one timed query, µs, and the spread of the p99 across runs.
+#[derive(Debug, Clone, Copy, Serialize, Default)]
+pub struct Timing {
+    /// Median over all runs.
+    pub p50: f64,
+    /// Median of the runs' p99.
+    pub p99: f64,
+    /// Smallest run p99.
+    pub p99_min: f64,
+    /// Largest run p99.
+    pub p99_max: f64,
+    /// 99.9th percentile over all runs.
+    pub p999: f64,
+}
+
+/// Everything bench-force measures.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchForceReport {
+    /// p99 of one field query, µs.
+    pub field_query_us_p99: f64,
+    /// Largest relative field-force error against the analytic sphere (depth 0.1–0.3 R).
+    pub field_force_rel_error: f64,
+    /// p99 of one probe query, µs.
+    pub probe_query_us_p99: f64,
+    /// Samples in contact in the probe query (mean over queries).
+    pub probe_contacts: f64,
+    /// Field query timing detail, µs.
+    pub field_query_us: Timing,
+    /// Field grid spacing, m.
+    pub field_spacing_m: f64,
+    /// Largest field-force error as a position, m, at depths 0–0.3 R.
+    pub field_position_error_m: f64,
+    /// Largest field-force direction error, rad.
+    pub field_direction_error_rad: f64,
+    /// Convergence order of the field-force error from R/10 → R/20 → R/40 (two values).
+    pub field_convergence_orders: [f64; 2],
+    /// Probe query timing detail (force only, no contact list), µs.
+    pub probe_query_us: Timing,
+    /// Probe query that also records every contact (what the sculptor needs), µs.
+    pub probe_query_recorded_us: Timing,
+    /// Largest relative probe-force error against seed 004 Fig. 4 in closed form.
+    pub probe_force_rel_error: f64,
+    /// Force jump through a sheet, N/mm: [surface normal, probe normal].
+    pub sheet_jump_n_per_mm: [f64; 2],
+    /// Force jump across a sharp edge, N/mm: [surface normal, probe normal].
+    pub edge_jump_n_per_mm: [f64; 2],
+    /// Direction turn across a sharp edge, °/mm: [surface normal, probe normal].
+    pub edge_turn_deg_per_mm: [f64; 2],
+    /// Smallest normal force component through the sheet, N (negative = reversal):
+    /// [surface normal, probe normal].
+    pub sheet_min_normal_force_n: [f64; 2],
+    /// One pressed 1 kHz tick of the 30×30 B-spline dual, µs.
+    pub sculpt_tick_us: Timing,
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let i = ((sorted.len() - 1) as f64 * q).round() as usize;
+    sorted[i]
+}
+
+/// Time `query(i)` for `i in 0..n` per run, `repeats` runs, after one untimed warm-up run.
+fn time_runs(repeats: usize, n: usize, mut query: impl FnMut(usize)) -> Timing {
+    (0..n.min(1000)).for_each(&mut query);
+    let mut all = Vec::with_capacity(repeats * n);
+    let mut p99s = Vec::with_capacity(repeats);
+    let mut run = Vec::with_capacity(n);
+    for _ in 0..repeats.max(1) {
+        run.clear();
+        for i in 0..n {
+            let t0 = Instant::now();
+            query(i);
+            run.push(t0.elapsed().as_secs_f64() * 1e6);
+        }
+        run.sort_by(f64::total_cmp);
+        p99s.push(percentile(&run, 0.99));
+        all.extend_from_slice(&run);
+    }
+    all.sort_by(f64::total_cmp);
+    p99s.sort_by(f64::total_cmp);
+    Timing {
+        p50: percentile(&all, 0.5),
+        p99: percentile(&p99s, 0.5),
+        p99_min: p99s[0],
+        p99_max: p99s[p99s.len() - 1],
+        p999: percentile(&all, 0.999),
+    }
+}
+
+fn field_params(r: f64) -> FieldContactParams {
+    FieldContactParams {
+        stiffness: 500.0,
+        damping: 1.0,
+        friction: 0.3,
+        max_search: r,
+        approach_margin: 0.1 * r,
+        validity_radius: 0.1 * r,
+        lifetime_s: 0.05,
+    }
+}
+
+/// Run every measurement.
+pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
+    anyhow::ensure!(
+        args.radius > 0.0 && args.cells >= 2.0,
+        "radius and cells must be positive"
+    );
+    let r = args.radius;
+    let sphere = AnalyticField::Sphere { size: r };
+    let h = r / args.cells;
+    let grid = sphere.grid(h);
+    let params = field_params(r);
+    let errors = force_errors(&sphere, &grid, &params, 2000, 1, (0.1, 0.3));
+    let shallow = force_errors(&sphere, &grid, &params, 2000, 2, (0.0, 0.3));
+    let conv: Vec<f64> = [10.0, 20.0, 40.0]
+        .iter()
+        .map(|c| force_errors(&sphere, &sphere.grid(r / c), &params, 500, 3, (0.1, 0.3)).rel_vector)
+        .collect();
+    // Query points: seeded contacts, tip velocities along the surface.
+    let points: Vec<(DVec3, DVec3)> = contact_points(&sphere, args.queries.max(1), 4, (0.1, 0.3))
+        .into_iter()
+        .map(|(x, _, n)| (x, n.any_orthonormal_vector() * 0.05))
+        .collect();
+    let mut ff = FieldForce::new(params)?;
+    let mut sink = DVec3::ZERO;
+    let field_t = time_runs(args.repeats, points.len(), |i| {
+        ff.reset();
+        sink += ff.query(&grid, points[i].0, points[i].1).output.force;
+    });
+
+    // Probe: plane spacing for ≈ `contacts` samples inside a centred sphere (disc area π r²).
+    let spacing = (std::f64::consts::PI * r * r / args.contacts.max(1) as f64).sqrt();
+    let samples = sheet(1.5 * r, spacing);
+    let index = SampleGrid::new(&samples, 0.25 * r)?;
+    let ks = 1.0e6;
+    let contact = |method| ContactParams {
+        surface_stiffness: ks,
+        surface_damping: 20.0,
+        method,
+    };
+    let mut pr = ProbeRenderer::new(contact(DirectionMethod::SurfaceNormal), 0)?;
+    let mut recording =
+        ProbeRenderer::new(contact(DirectionMethod::SurfaceNormal), 4 * args.contacts)?;
+    let mut probe = Probe::sphere(r)?;
+    let offsets: Vec<DVec3> = (0..64)
+        .map(|i| {
+            DVec3::new(
+                (i % 8) as f64 * 1e-4,
+                (i / 8) as f64 * 1e-4,
+                (i % 5) as f64 * 1e-4,
+            )
+        })
+        .collect();
+    let (mut contacts, mut probe_err) = (0usize, 0.0f64);
+    for o in &offsets {
+        probe.set_pose(ProbePose::at(*o))?;
+        let f = pr.query(&probe, &index, DVec3::ZERO);
+        let reference = fig4_force(r, o.z, ks);
+        probe_err = probe_err.max((f.force - DVec3::Z * reference).length() / reference);
+    }
+    let probe_t = time_runs(args.repeats, args.queries.max(1) / 4, |i| {
+        let o = offsets[i % offsets.len()];
+        if probe.set_pose(ProbePose::at(o)).is_ok() {
+            let f = pr.query(&probe, &index, DVec3::new(0.0, 0.0, -0.01));
+            contacts += f.contact_count;
+            sink += f.force;
+        }
+    });
+    let recorded_t = time_runs(args.repeats, args.queries.max(1) / 4, |i| {
+        let o = offsets[i % offsets.len()];
+        if probe.set_pose(ProbePose::at(o)).is_ok() {
+            sink += recording
+                .query(&probe, &index, DVec3::new(0.0, 0.0, -0.01))
+                .force;
+        }
+    });
+    let timed_probe_queries =
+        (args.queries.max(1) / 4) * args.repeats.max(1) + (args.queries.max(1) / 4).min(1000);
+
+    // Continuity sweeps.
+    let methods = [DirectionMethod::SurfaceNormal, DirectionMethod::ProbeNormal];
+    let sheet_grid = SampleGrid::new(&sheet(1.5 * r, r / 25.0), r / 3.0)?;
+    let edge_grid = SampleGrid::new(&edge(3.0 * r, r / 25.0), r / 3.0)?;
+    let base = Probe::sphere(r)?;
+    let mut sheet_sweeps = Vec::new();
+    let mut edge_sweeps = Vec::new();
+    for m in methods {
+        let mut rr = ProbeRenderer::new(
+            ContactParams {
+                surface_damping: 0.0,
+                ..contact(m)
+            },
+            8192,
+        )?;
+        let (a, b) = (
+            DVec3::new(0.003, 0.002, 1.1 * r),
+            DVec3::new(0.003, 0.002, -1.1 * r),
+        );
+        sheet_sweeps.push(sweep(&mut rr, &base, &sheet_grid, a, b, 440, DVec3::Z));
+        let z = r - 0.1 * r;
+        let (a, b) = (DVec3::new(-1.5 * r, 0.0, z), DVec3::new(1.2 * r, 0.0, z));
+        edge_sweeps.push(sweep(&mut rr, &base, &edge_grid, a, b, 540, DVec3::Z));
+    }
+
+    let sculpt_t = time_sculpt(args.repeats, 2000)?;
+    std::hint::black_box(sink);
+    Ok(BenchForceReport {
+        field_query_us_p99: field_t.p99,
+        field_force_rel_error: errors.rel_vector,
+        probe_query_us_p99: probe_t.p99,
+        probe_contacts: contacts as f64 / timed_probe_queries as f64,
+        field_query_us: field_t,
+        field_spacing_m: h,
+        field_position_error_m: shallow.position_m,
+        field_direction_error_rad: errors.direction_rad,
+        field_convergence_orders: [(conv[0] / conv[1]).log2(), (conv[1] / conv[2]).log2()],
+        probe_query_us: probe_t,
+        probe_query_recorded_us: recorded_t,
+        probe_force_rel_error: probe_err,
+        sheet_jump_n_per_mm: [
+            sheet_sweeps[0].max_jump_n_per_mm,
+            sheet_sweeps[1].max_jump_n_per_mm,
+        ],
+        edge_jump_n_per_mm: [
+            edge_sweeps[0].max_jump_n_per_mm,
+            edge_sweeps[1].max_jump_n_per_mm,
+        ],
+        edge_turn_deg_per_mm: [
+            edge_sweeps[0].max_turn_deg_per_mm,
+            edge_sweeps[1].max_turn_deg_per_mm,
+        ],
+        sheet_min_normal_force_n: [
+            sheet_sweeps[0].min_along_watch_n,
+            sheet_sweeps[1].min_along_watch_n,
+        ],
+        sculpt_tick_us: sculpt_t,
+    })
+}
+
+/// Time pressed 1 ms ticks of a 30×30 dual with a probe holding 5 mm into it.
+fn time_sculpt(repeats: usize, ticks: usize) -> anyhow::Result<Timing> {
+    let mesh = MeshParams {
+        total_mass: 0.1,
+        stiffness: 20.0,
+        bending: 2.0,
+        damping_rate: 200.0,
+        plastic_rate: 0.0,
+        pin_border: true,
+    };
+    let contact = ContactParams {
+        surface_stiffness: 5.0e6,
+        surface_damping: 0.0,
+        method: DirectionMethod::SurfaceNormal,
+    };
+    let mut s = ProbeSculptor::new(BicubicPatch::flat(30, 0.05)?, mesh, contact, 0.005, 0.01)?;
+    let probe = Probe::sphere(0.008)?.posed(ProbePose::at(DVec3::new(0.0, 0.0, 0.003)))?;
+    let mut failed = None;
+    let t = time_runs(repeats, ticks, |_| {
+        if let Err(e) = s.tick(&probe, DVec3::ZERO, true, 0.001) {
+            failed = Some(e);
+        }
+    });
+    match failed {
+        Some(e) => Err(e.into()),
+        None => Ok(t),
+    }
+}
+
+/// Print the report as a table or JSON.
+pub fn print(r: &BenchForceReport, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(r)?);
+        return Ok(());
+    }
+    let t = |name: &str, x: &Timing| {
+        println!(
+            "{name:<22} p50 {:>7.3} µs  p99 {:>7.3} µs [runs {:.3}–{:.3}]  p99.9 {:>7.3} µs",
+            x.p50, x.p99, x.p99_min, x.p99_max, x.p999
+        )
+    };
+    t("field query", &r.field_query_us);
+    println!(
+        "  h = {:.3} mm: rel error {:.3e}, direction {:.2e} rad, as position {:.2} µm; orders {:.2}, {:.2}",
+        r.field_spacing_m * 1e3,
+        r.field_force_rel_error,
+        r.field_direction_error_rad,
+        r.field_position_error_m * 1e6,
+        r.field_convergence_orders[0],
+        r.field_convergence_orders[1]
+    );
+    t("probe query", &r.probe_query_us);
+    t("  + contact list", &r.probe_query_recorded_us);
+    println!(
+        "  {:.0} contacts: rel error vs Fig. 4 {:.3e}",
+        r.probe_contacts, r.probe_force_rel_error
+    );
+    println!(
+        "  sheet jump N/mm [surface, probe] {:.3?}, min normal force N {:.3?}",
+        r.sheet_jump_n_per_mm, r.sheet_min_normal_force_n
+    );
+    println!(
+        "  edge  jump N/mm {:.3?}, turn °/mm {:.2?}",
+        r.edge_jump_n_per_mm, r.edge_turn_deg_per_mm
+    );
+    t("sculpt tick 30×30", &r.sculpt_tick_us);
+    Ok(())
+}
