@@ -14,6 +14,7 @@
 pub mod accuracy;
 pub mod bspline;
 pub mod bspline_surface;
+pub mod csg;
 pub mod dynamics;
 pub mod field;
 pub mod follow;

@@ -2,6 +2,7 @@
 //! rollback, points following the field, tools, CSG, resampling, scenes. One binary.
 
 mod common;
+mod csg;
 mod integrators;
 mod rope;
 mod scene;
