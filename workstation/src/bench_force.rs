@@ -301,7 +301,7 @@ fn time_sculpt(repeats: usize, ticks: usize) -> anyhow::Result<Timing> {
     };
     let contact = ContactParams {
         surface_stiffness: 5.0e6,
-        surface_damping: 0.0,
+        surface_damping: 1.5e4,
         method: DirectionMethod::SurfaceNormal,
     };
     let mut s = ProbeSculptor::new(BicubicPatch::flat(30, 0.05)?, mesh, contact, 0.005, 0.01)?;

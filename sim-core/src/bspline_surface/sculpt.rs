@@ -6,8 +6,9 @@
 //! probe along the point's normal line (`k_s a_i d_i` along the exit direction), the mesh is
 //! integrated, and the user feels the sum of those forces reversed (Newton's third law). The
 //! control net for display is recovered at a lower rate by [`ProbeSculptor::update_display`].
-//! Contacts are recomputed every substep so the stiff tool springs stay stable. No allocation
-//! per tick.
+//! Each contact is a Kelvin–Voigt spring-damper (`k_s`, `b_s` per unit area) on its point.
+//! Contacts are recomputed every substep, and substeps are short enough for the mesh springs
+//! and the tool's spring-dampers alike, so the stiff tool stays stable. No allocation per tick.
 
 use glam::DVec3;
 
@@ -42,6 +43,7 @@ pub struct ProbeSculptor {
     samples: Vec<SurfaceSample>,
     external: Vec<DVec3>,
     internal: Vec<DVec3>,
+    substep_dt: f64,
     validity_radius: f64,
     lifetime_s: f64,
 }
@@ -62,6 +64,7 @@ impl ProbeSculptor {
         let mut points = vec![DVec3::ZERO; n * n];
         dual.to_mesh(patch.control(), &mut points);
         let mesh = MassSpringMesh::new(n, points, mesh)?;
+        let substep_dt = mesh.stable_dt().min(tool_stable_dt(&mesh, &contact, n));
         let renderer = ProbeRenderer::new(contact, n * n).map_err(|_| SurfaceError::NonFinite)?;
         let placeholder = SurfaceSample {
             position: DVec3::ZERO,
@@ -76,6 +79,7 @@ impl ProbeSculptor {
             samples: vec![placeholder; n * n],
             external: vec![DVec3::ZERO; n * n],
             internal: vec![DVec3::ZERO; n * n],
+            substep_dt,
             validity_radius,
             lifetime_s,
         })
@@ -120,17 +124,26 @@ impl ProbeSculptor {
                 hua_qin: DVec3::ZERO,
             });
         }
-        let substeps = (dt / self.mesh.stable_dt()).ceil().max(1.0) as usize;
+        let velocity = if velocity.is_finite() {
+            velocity
+        } else {
+            DVec3::ZERO
+        };
+        let substeps = (dt / self.substep_dt).ceil().max(1.0) as usize;
         let h = dt / substeps as f64;
         let k = self.renderer.params().surface_stiffness;
+        let b = self.renderer.params().surface_damping;
         let (mut applied, mut contacts, mut area) = (DVec3::ZERO, 0, 0.0);
         for _ in 0..substeps {
             self.mesh.samples(&mut self.samples);
             let f = self.renderer.query_slice(probe, &self.samples, velocity);
             self.external.fill(DVec3::ZERO);
             applied = DVec3::ZERO;
+            let vel = self.mesh.velocities();
             for c in self.renderer.contacts() {
-                let push = k * c.area * c.depth * c.exit;
+                // Kelvin–Voigt per contact: the depth grows at −(v_point − v_probe)·exit.
+                let rate = -(vel[c.sample as usize] - velocity).dot(c.exit);
+                let push = (c.area * (k * c.depth + b * rate)).max(0.0) * c.exit;
                 self.external[c.sample as usize] = push;
                 applied += push;
             }
@@ -141,6 +154,9 @@ impl ProbeSculptor {
         let force = -applied;
         let model = match force.try_normalize() {
             Some(normal) if area > 0.0 => {
+                // The point dampers act on the velocity of the probe relative to the moving
+                // mesh, which the server cannot see: the model carries them inside F (no model
+                // damping), so `k·depth` reproduces F exactly at the cursor.
                 let stiffness = k * area;
                 let offset = force.length() / stiffness;
                 ContactModel {
@@ -148,7 +164,7 @@ impl ProbeSculptor {
                     point: cursor + normal * offset,
                     normal,
                     stiffness,
-                    damping: self.renderer.params().surface_damping * area,
+                    damping: 0.0,
                     friction: 0.0,
                     validity_radius: self.validity_radius + offset,
                     lifetime_s: self.lifetime_s,
@@ -180,4 +196,26 @@ impl ProbeSculptor {
             .to_control(self.mesh.positions(), self.patch.control_mut());
         &self.patch
     }
+}
+
+/// Longest substep stable for the tool springs on one point: half of `2/ω` and `2m/b` with the
+/// point's spring `k_s a` and damper `b_s a`, `a` twice the largest rest area (room to stretch).
+fn tool_stable_dt(mesh: &MassSpringMesh, contact: &ContactParams, n: usize) -> f64 {
+    let placeholder = SurfaceSample {
+        position: DVec3::ZERO,
+        normal: DVec3::Z,
+        area: 0.0,
+    };
+    let mut samples = vec![placeholder; n * n];
+    mesh.samples(&mut samples);
+    let a = 2.0 * samples.iter().fold(0.0f64, |m, s| m.max(s.area));
+    let m = mesh.point_mass();
+    let (k, b) = (contact.surface_stiffness * a, contact.surface_damping * a);
+    let spring = if k > 0.0 {
+        2.0 / (k / m).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    let damper = if b > 0.0 { 2.0 * m / b } else { f64::INFINITY };
+    0.5 * spring.min(damper)
 }

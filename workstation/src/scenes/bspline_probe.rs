@@ -92,7 +92,7 @@ impl Default for SceneConfig {
             probe_axes: DVec3::new(0.012, 0.008, 0.008),
             contact: ContactParams {
                 surface_stiffness: 5.0e6,
-                surface_damping: 0.0,
+                surface_damping: 1.5e4,
                 method: DirectionMethod::SurfaceNormal,
             },
             dt: 0.001,
