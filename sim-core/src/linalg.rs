@@ -66,24 +66,30 @@ pub fn sym3_eigen(m: DMat3) -> Option<([f64; 3], [DVec3; 3])> {
 /// not positive or not finite, i.e. the matrix is not numerically positive definite.
 pub fn cholesky_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
     debug_assert!(a.len() >= n * n && b.len() >= n);
-    // Factor A = Uᵀ U, U upper triangular, stored in the upper triangle of `a`.
+    // Factor A = Uᵀ U, U upper triangular, stored in the upper triangle of `a`. Right-looking:
+    // after row i is final, subtract its outer product from the trailing block, row by row, so
+    // every inner loop runs over contiguous memory.
     for i in 0..n {
-        let mut d = a[i * n + i];
-        for k in 0..i {
-            d -= a[k * n + i] * a[k * n + i];
-        }
+        let d = a[i * n + i];
         if !(d > 0.0 && d.is_finite()) {
             return false;
         }
         let d = d.sqrt();
-        a[i * n + i] = d;
         let inv = 1.0 / d;
-        for j in i + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..i {
-                s -= a[k * n + i] * a[k * n + j];
+        a[i * n + i] = d;
+        for v in &mut a[i * n + i + 1..(i + 1) * n] {
+            *v *= inv;
+        }
+        let (head, tail) = a.split_at_mut((i + 1) * n);
+        let urow = &head[i * n..(i + 1) * n];
+        for k in i + 1..n {
+            let f = urow[k];
+            if f != 0.0 {
+                let row = &mut tail[(k - i - 1) * n..(k - i) * n];
+                for (x, u) in row[k..].iter_mut().zip(&urow[k..]) {
+                    *x -= f * u;
+                }
             }
-            a[i * n + j] = s * inv;
         }
     }
     // Forward: Uᵀ y = b.
@@ -103,6 +109,46 @@ pub fn cholesky_solve(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
         b[i] = s / a[i * n + i];
     }
     b[..n].iter().all(|v| v.is_finite())
+}
+
+/// [`cholesky_solve`] for a compile-time size: the same algorithm on fixed-size rows, which the
+/// compiler unrolls and vectorises (the 27×27 local fit is the hot case).
+pub fn cholesky_solve_fixed<const N: usize>(a: &mut [[f64; N]; N], b: &mut [f64; N]) -> bool {
+    for i in 0..N {
+        let d = a[i][i];
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let d = d.sqrt();
+        let inv = 1.0 / d;
+        a[i][i] = d;
+        for v in &mut a[i][i + 1..] {
+            *v *= inv;
+        }
+        let (head, tail) = a.split_at_mut(i + 1);
+        let urow = &head[i];
+        for (k, row) in (i + 1..N).zip(tail.iter_mut()) {
+            let f = urow[k];
+            for j in k..N {
+                row[j] -= f * urow[j];
+            }
+        }
+    }
+    for i in 0..N {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= a[k][i] * b[k];
+        }
+        b[i] = s / a[i][i];
+    }
+    for i in (0..N).rev() {
+        let mut s = b[i];
+        for k in i + 1..N {
+            s -= a[i][k] * b[k];
+        }
+        b[i] = s / a[i][i];
+    }
+    b.iter().all(|v| v.is_finite())
 }
 
 /// An orthonormal pair of tangents completing the unit vector `n` to a right-handed frame.

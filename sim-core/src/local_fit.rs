@@ -11,7 +11,7 @@
 use glam::DVec3;
 
 use crate::bspline::{MAX_SIZE, basis3, greville};
-use crate::linalg::{cholesky_solve, tangent_frame};
+use crate::linalg::{cholesky_solve, cholesky_solve_fixed, tangent_frame};
 
 /// Parameters of the local fits and the blend. Lengths are relative to each point's
 /// neighbourhood radius `r` (distance to its farthest used neighbour), so fits are scale-free.
@@ -101,6 +101,9 @@ impl LocalFrame {
 pub struct FitScratch {
     ata: Vec<f64>,
     rhs: Vec<f64>,
+    /// The 27×27 system of the common 3×3×3 spline, in fixed-size rows.
+    dense: Box<[[f64; 27]; 27]>,
+    rhs27: [f64; 27],
 }
 
 impl FitScratch {
@@ -110,6 +113,8 @@ impl FitScratch {
         Self {
             ata: vec![0.0; c * c],
             rhs: vec![0.0; c],
+            dense: Box::new([[0.0; 27]; 27]),
+            rhs27: [0.0; 27],
         }
     }
 }
@@ -161,11 +166,17 @@ pub fn fit_local(
     let inv_h2 = 1.0 / (params.weight_width * r).powi(2);
     let inv_edge = 0.5 / frame.half;
 
+    let mut rows = [([0.0; 27], [0usize; 27], 0.0, 0.0); 3];
+    let (dense, rhs27) = (&mut *scratch.dense, &mut scratch.rhs27);
     let ata = &mut scratch.ata[..c * c];
     let rhs = &mut scratch.rhs[..c];
-    ata.fill(0.0);
-    rhs.fill(0.0);
-    let (mut vals, mut idx) = ([0.0; 27], [0usize; 27]);
+    if size == 3 {
+        dense.iter_mut().for_each(|r| r.fill(0.0));
+        rhs27.fill(0.0);
+    } else {
+        ata.fill(0.0);
+        rhs.fill(0.0);
+    }
     for j in 0..hood.points.len() {
         if !usable(j) {
             continue;
@@ -173,18 +184,22 @@ pub fn fit_local(
         let p = hood.points[j];
         let theta = (-(p - hood.center).length_squared() * inv_h2).exp();
         let nj = hood.normals[j];
-        for (x, target) in [(p, 0.0), (p + nj * eps, eps), (p - nj * eps, -eps)] {
+        for (row, (x, target)) in
+            rows.iter_mut()
+                .zip([(p, 0.0), (p + nj * eps, eps), (p - nj * eps, -eps)])
+        {
             let [u, v, w] = frame.to_local(x);
-            basis3(size, u, v, w, &mut vals, &mut idx);
+            basis3(size, u, v, w, &mut row.0, &mut row.1);
             // Residual against the planar prior `w − ½` (normalised units).
-            let res = target * inv_edge - (w - 0.5);
+            row.2 = target * inv_edge - (w - 0.5);
+            row.3 = theta;
+        }
+        for (vals, idx, res, theta) in &rows {
             if size == 3 {
-                // Dense 27×27 case (the common one): fixed-size rows, so the update vectorises.
-                for a in 0..27 {
+                // Dense case (the common one): fixed-size rows, so the update vectorises.
+                for (a, row) in dense.iter_mut().enumerate() {
                     let wa = theta * vals[a];
-                    rhs[a] += wa * res;
-                    let row: &mut [f64; 27] =
-                        (&mut ata[a * 27..a * 27 + 27]).try_into().expect("27");
+                    rhs27[a] += wa * res;
                     for b in a..27 {
                         row[b] += wa * vals[b];
                     }
@@ -201,12 +216,19 @@ pub fn fit_local(
             }
         }
     }
-    let trace: f64 = (0..c).map(|a| ata[a * c + a]).sum();
-    let lambda = params.regularization * trace / c as f64 + f64::MIN_POSITIVE;
-    for a in 0..c {
-        ata[a * c + a] += lambda;
-    }
-    let solved = cholesky_solve(ata, rhs, c);
+    let solved = if size == 3 {
+        let trace: f64 = (0..27).map(|a| dense[a][a]).sum();
+        let lambda = params.regularization * trace / 27.0 + f64::MIN_POSITIVE;
+        (0..27).for_each(|a| dense[a][a] += lambda);
+        let ok = cholesky_solve_fixed(dense, rhs27);
+        rhs[..27].copy_from_slice(&rhs27[..]);
+        ok
+    } else {
+        let trace: f64 = (0..c).map(|a| ata[a * c + a]).sum();
+        let lambda = params.regularization * trace / c as f64 + f64::MIN_POSITIVE;
+        (0..c).for_each(|a| ata[a * c + a] += lambda);
+        cholesky_solve(ata, rhs, c)
+    };
     let edge = 2.0 * frame.half;
     for a in 0..size {
         for b in 0..size {
