@@ -42,23 +42,33 @@ fn field(c: &mut Criterion) {
 
 fn probe(c: &mut Criterion) {
     let spacing = (std::f64::consts::PI * R * R / 2000.0).sqrt();
-    let grid = SampleGrid::new(&sheet(1.5 * R, spacing), 0.5 * R).unwrap();
-    for (name, method) in [
+    let grid = SampleGrid::new(&sheet(1.5 * R, spacing), 0.25 * R).unwrap();
+    // Force only (no contact list) for both direction methods, then with the contact list the
+    // sculptor needs.
+    let cases = [
         (
             "probe_query_2000_surface_normal",
             DirectionMethod::SurfaceNormal,
+            0,
         ),
         (
             "probe_query_2000_probe_normal",
             DirectionMethod::ProbeNormal,
+            0,
         ),
-    ] {
+        (
+            "probe_query_2000_with_contacts",
+            DirectionMethod::SurfaceNormal,
+            8192,
+        ),
+    ];
+    for (name, method, record) in cases {
         let params = ContactParams {
             surface_stiffness: 1e6,
             surface_damping: 20.0,
             method,
         };
-        let mut r = ProbeRenderer::new(params, 8192).unwrap();
+        let mut r = ProbeRenderer::new(params, record).unwrap();
         let probe = Probe::sphere(R)
             .unwrap()
             .posed(ProbePose::at(DVec3::ZERO))
