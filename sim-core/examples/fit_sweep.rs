@@ -64,6 +64,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &[1000, 10_000, 67_038, 200_000]
     };
     let configs = [(12, 3), (20, 3), (30, 3), (30, 4)];
+    let load = || std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let load_before = load();
     let mut rows = Vec::new();
     for (name, shape) in shapes {
         for &n in sizes {
@@ -136,6 +138,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     std::fs::write(format!("{out}/fit_sweep.csv"), csv)?;
     println!("{md}");
+    println!(
+        "load average (1, 5, 15 min) before: {}after: {}",
+        load_before,
+        load()
+    );
     plot(&rows, &format!("{out}/construction_speed_vs_error.png"))?;
     Ok(())
 }
@@ -155,7 +162,7 @@ fn plot(rows: &[Row], path: &str) -> Result<(), Box<dyn std::error::Error>> {
     let panels = root.split_evenly((1, 2));
     let t_range = rows
         .iter()
-        .map(|r| r.wall[0])
+        .map(|r| r.cpu)
         .fold((f64::MAX, 0.0f64), |(lo, hi), t| (lo.min(t), hi.max(t)));
     for (panel, (metric, label)) in panels
         .iter()
@@ -168,7 +175,7 @@ fn plot(rows: &[Row], path: &str) -> Result<(), Box<dyn std::error::Error>> {
             .fold((f64::MAX, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
         let mut chart = ChartBuilder::on(panel)
             .caption(
-                format!("{label} vs construction time (2 cores)"),
+                format!("{label} vs construction CPU time"),
                 ("sans-serif", 22),
             )
             .margin(12)
@@ -180,7 +187,9 @@ fn plot(rows: &[Row], path: &str) -> Result<(), Box<dyn std::error::Error>> {
             )?;
         chart
             .configure_mesh()
-            .x_desc("construction wall time, s (median)")
+            .x_desc(
+                "construction CPU time, s (all threads; about 2x the wall time on 2 idle cores)",
+            )
             .y_desc(label)
             .x_label_formatter(&|x| format!("{x:.3}"))
             .y_label_formatter(&|y| format!("{y:.0e}"))
@@ -191,7 +200,7 @@ fn plot(rows: &[Row], path: &str) -> Result<(), Box<dyn std::error::Error>> {
                 let pts: Vec<(f64, f64)> = rows
                     .iter()
                     .filter(|r| r.shape == shape && r.k == k && r.size == size)
-                    .map(|r| (r.wall[0], value(r)))
+                    .map(|r| (r.cpu, value(r)))
                     .collect();
                 let color = Palette99::pick(series).to_rgba();
                 series += 1;

@@ -243,7 +243,9 @@ impl GlobalField {
         let rel = x - d.frames[i].center;
         let n = d.normals[i];
         let sign = if rel.dot(n) < 0.0 { -1.0 } else { 1.0 };
-        let len = rel.length();
+        // Scaled length: finite even where |rel|² overflows.
+        let m = rel.abs().max_element();
+        let len = if m > 0.0 && m.is_finite() { m * (rel / m).length() } else { m };
         if len > 0.0 && len.is_finite() {
             (sign * len, rel * (sign / len))
         } else {
