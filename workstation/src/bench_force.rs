@@ -183,7 +183,7 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
     // Probe: plane spacing for ≈ `contacts` samples inside a centred sphere (disc area π r²).
     let spacing = (std::f64::consts::PI * r * r / args.contacts.max(1) as f64).sqrt();
     let samples = sheet(1.5 * r, spacing);
-    let index = SampleGrid::new(&samples, 0.25 * r)?;
+    let index = SampleGrid::new(&samples, 0.1 * r)?;
     let ks = 1.0e6;
     let contact = |method| ContactParams {
         surface_stiffness: ks,

@@ -56,8 +56,6 @@ pub struct Contact {
     /// The unit direction along which the sample leaves the probe soonest (`±N_i`): the probe
     /// pushes the sample this way, the sample pushes the probe the opposite way.
     pub exit: DVec3,
-    /// Outward unit probe normal at the sample (`∇f_p/‖∇f_p‖`; zero at the centre).
-    pub probe_normal: DVec3,
 }
 
 /// The result of one probe query. `force` is the force on the probe, N.
@@ -135,7 +133,10 @@ impl ProbeRenderer {
         let (lo, hi) = probe.aabb();
         let mut sums = Sums::default();
         self.contacts.clear();
-        grid.for_each_in_box(lo, hi, |i, s| self.touch(probe, i, s, &mut sums));
+        let radius = probe.semi_axes().max_element();
+        grid.for_each_near(lo, hi, probe.center(), radius, |i, s| {
+            self.touch(probe, i, s, &mut sums)
+        });
         self.finish(&sums, velocity)
     }
 
@@ -170,22 +171,19 @@ impl ProbeRenderer {
         sums.area += s.area;
         sums.surface_dir += w * s.normal;
         sums.count += 1;
-        let record = self.contacts.len() < self.capacity;
-        sums.truncated |= !record && self.capacity > 0;
-        if !record && self.params.method == DirectionMethod::SurfaceNormal {
-            return;
+        if self.params.method == DirectionMethod::ProbeNormal {
+            sums.probe_dir -= w * probe.normal_from_local(q);
         }
-        let probe_normal = probe.normal_from_local(q);
-        sums.probe_dir -= w * probe_normal;
-        if record {
+        if self.contacts.len() < self.capacity {
             let exit = if t >= 0.0 { s.normal } else { -s.normal };
             self.contacts.push(Contact {
                 sample: index,
                 depth,
                 area: s.area,
                 exit,
-                probe_normal,
             });
+        } else {
+            sums.truncated |= self.capacity > 0;
         }
     }
 

@@ -172,37 +172,55 @@ impl SampleGrid {
     /// Visit every sample whose cell overlaps the box `[min, max]` (a superset of the samples
     /// inside it), as `(index in the construction order, sample)`, in storage order.
     #[inline]
-    pub fn for_each_in_box(
+    pub fn for_each_in_box(&self, min: DVec3, max: DVec3, visit: impl FnMut(u32, &SurfaceSample)) {
+        self.for_each_near(min, max, DVec3::ZERO, f64::INFINITY, visit);
+    }
+
+    /// As [`SampleGrid::for_each_in_box`], skipping cells outside the ball of `radius` about
+    /// `center` too: each row of cells is clipped to the ball's chord through it.
+    #[inline]
+    pub fn for_each_near(
         &self,
         min: DVec3,
         max: DVec3,
+        center: DVec3,
+        radius: f64,
         mut visit: impl FnMut(u32, &SurfaceSample),
     ) {
-        if self.samples.is_empty() || !min.is_finite() || !max.is_finite() {
+        if self.samples.is_empty() || !min.is_finite() || !max.is_finite() || radius.is_nan() {
             return;
         }
-        let top = self.origin
-            + self.cell
-                * DVec3::new(
-                    self.dims[0] as f64,
-                    self.dims[1] as f64,
-                    self.dims[2] as f64,
-                );
+        let dims = DVec3::new(
+            self.dims[0] as f64,
+            self.dims[1] as f64,
+            self.dims[2] as f64,
+        );
+        let top = self.origin + self.cell * dims;
         if max.cmplt(self.origin).any() || min.cmpgt(top).any() {
             return;
         }
-        let (i0, j0, k0) = (
-            self.coord(min.x, 0),
-            self.coord(min.y, 1),
-            self.coord(min.z, 2),
-        );
-        let (i1, j1, k1) = (
-            self.coord(max.x, 0),
-            self.coord(max.y, 1),
-            self.coord(max.z, 2),
-        );
+        let (j0, k0) = (self.coord(min.y, 1), self.coord(min.z, 2));
+        let (j1, k1) = (self.coord(max.y, 1), self.coord(max.z, 2));
+        // Distance from `c` to the interval of cell `i` along an axis.
+        let gap = |c: f64, o: f64, i: usize| {
+            let lo = o + self.cell * i as f64;
+            (lo - c).max(c - (lo + self.cell)).max(0.0)
+        };
+        let r2 = radius * radius;
         for k in k0..=k1 {
+            let dz = gap(center.z, self.origin.z, k);
             for j in j0..=j1 {
+                let dy = gap(center.y, self.origin.y, j);
+                let rest = r2 - dy * dy - dz * dz;
+                if rest < 0.0 {
+                    continue;
+                }
+                let half = rest.sqrt();
+                let (x0, x1) = (min.x.max(center.x - half), max.x.min(center.x + half));
+                if x0 > x1 {
+                    continue;
+                }
+                let (i0, i1) = (self.coord(x0, 0), self.coord(x1, 0));
                 let row = self.dims[0] * (j + self.dims[1] * k);
                 let (a, b) = (
                     self.cell_start[row + i0] as usize,
