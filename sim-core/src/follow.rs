@@ -149,6 +149,13 @@ impl Follower {
         &self.moved
     }
 
+    /// Make room for points appended to the object (they start unmoved).
+    pub fn grow(&mut self, points: usize) {
+        if points > self.is_moved.len() {
+            self.is_moved.resize(points, false);
+        }
+    }
+
     /// Start a new stroke's moved list; forget the Taylor models (the base field changed).
     pub fn clear_moved(&mut self) {
         self.cache.clear();
@@ -290,8 +297,8 @@ pub fn refit_moved(
     samples.resize(n * n * n, 0.0);
     for &i in moved {
         let i = i as usize;
-        if base.support_radius(i) == 0.0 {
-            continue; // outlier: no local field
+        if i >= base.len() || base.support_radius(i) == 0.0 {
+            continue; // inserted since the fit, or an outlier: no local field
         }
         let frame = *base.frame(i);
         let coeffs = base.coefficients(i);

@@ -30,6 +30,7 @@ pub mod pointset;
 pub mod probe;
 pub mod projection;
 pub mod reconstruct;
+pub mod resample;
 pub mod sampling;
 pub mod scene;
 pub mod spatial;

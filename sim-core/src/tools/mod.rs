@@ -5,6 +5,8 @@
 //! touches only the nodes or points within its reach, allocates nothing per call beyond the
 //! caller's buffers, and rejects non-finite parameters with [`ToolError`].
 
+pub mod emboss;
+pub mod paint;
 pub mod rope;
 
 pub use rope::{Profile, Rope};

@@ -6,3 +6,4 @@ mod csg;
 mod integrators;
 mod rope;
 mod scene;
+mod tools;
