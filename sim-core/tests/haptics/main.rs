@@ -2,6 +2,7 @@
 //! forces with a contact model, and the sculpting reaction. One binary; tolerances are stated
 //! next to each assertion with the reason.
 
+mod alloc;
 mod bspline;
 mod field;
 mod plots;
