@@ -156,7 +156,8 @@ impl FieldForce {
             stiffness: p.stiffness,
             damping: p.damping,
             friction: p.friction,
-            validity_radius: p.validity_radius,
+            // The server measures validity from `point`, which is `|depth|` from the cursor.
+            validity_radius: p.validity_radius + t,
             lifetime_s: p.lifetime_s,
         };
         if !inside || depth <= 0.0 {

@@ -186,6 +186,21 @@ fn the_local_model_renders_the_query_force_at_the_cursor_along_a_sliding_path() 
 }
 
 #[test]
+fn a_deep_contact_model_still_covers_the_cursor() {
+    // 8 mm deep, validity radius 5 mm: the radius is about the cursor, not the contact point.
+    let grid = PLANE.grid(R / 10.0);
+    let mut ff = FieldForce::new(params()).unwrap();
+    let x = DVec3::new(0.0, 0.0, -0.008);
+    let q = ff.query(&grid, x, DVec3::ZERO);
+    let f =
+        ModelRenderer::new().render(&q.output.to_command(0, 0), x.as_vec3(), glam::Vec3::ZERO, 0);
+    assert!(
+        (f.as_dvec3() - q.output.force).length() < 1e-5 * K * 0.008,
+        "{f}"
+    );
+}
+
+#[test]
 fn the_local_model_predicts_the_query_near_the_contact() {
     // A frictionless model from the query at x0, rendered at x0 + δ (|δ| ≤ 1 mm), against a
     // fresh query there. The plane misses the sphere by ≤ |δ|²/(2R) in depth and its normal
