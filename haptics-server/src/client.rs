@@ -177,7 +177,10 @@ impl ControlChannel {
 }
 
 enum HotSocket {
-    Udp(tokio::net::UdpSocket),
+    /// Receive through tokio; send through a clone of the same socket with a plain
+    /// non-blocking `send`, which (unlike tokio's `try_send`) does not depend on the reactor
+    /// having seen the socket writable yet: under load that made the first packet vanish.
+    Udp(tokio::net::UdpSocket, std::net::UdpSocket),
     // The endpoint is held so its socket lives as long as the connection.
     Quic(quinn::Connection, #[allow(dead_code)] quinn::Endpoint),
 }
@@ -207,7 +210,7 @@ impl HotPath {
         let mut buf = [0u8; MAX_PACKET_BYTES + 1];
         loop {
             let bytes: &[u8] = match &self.socket {
-                HotSocket::Udp(s) => {
+                HotSocket::Udp(s, _) => {
                     // Until the first cursor arrives, re-send the opener every 100 ms: the
                     // server learns our address from it, and UDP may lose it.
                     let n = if self.streaming {
@@ -241,23 +244,24 @@ impl HotPath {
         }
     }
 
-    /// Send a force command now (non-blocking; dropped if the socket buffer is full).
+    /// Send a force command now (non-blocking; dropped if the socket buffer is full: a newer
+    /// command will follow, and the server's watchdog covers a gap).
     pub fn send_force(&mut self, cmd: &ForceCommand) -> Result<(), ClientError> {
         let len = self
             .outbound
             .encode(self.clock.now_ns(), Body::Force(*cmd), &mut self.buf);
         let bytes = self.buf;
-        self.send_raw(&bytes[..len])
+        match self.send_raw(&bytes[..len]) {
+            Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
+            other => other,
+        }
     }
 
-    /// Send arbitrary bytes on the hot path (tests: forged and malformed packets).
+    /// Send arbitrary bytes on the hot path (tests: forged and malformed packets). Unlike
+    /// [`HotPath::send_force`], a full socket buffer is an error (`WouldBlock`), not a drop.
     pub fn send_raw(&self, bytes: &[u8]) -> Result<(), ClientError> {
         match &self.socket {
-            HotSocket::Udp(s) => match s.try_send(bytes) {
-                Ok(_) => Ok(()),
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
-                Err(e) => Err(e.into()),
-            },
+            HotSocket::Udp(_, s) => s.send(bytes).map(|_| ()).map_err(ClientError::Io),
             HotSocket::Quic(c, _) => c
                 .send_datagram(bytes::Bytes::copy_from_slice(bytes))
                 .map_err(|e| ClientError::Quic(e.to_string())),
@@ -372,10 +376,12 @@ impl Client {
                 } else {
                     (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
                 };
-                let s = tokio::net::UdpSocket::bind(bind).await?;
-                s.connect(cfg.server).await?;
+                let send = std::net::UdpSocket::bind(bind)?;
+                send.connect(cfg.server)?;
+                send.set_nonblocking(true)?;
+                let recv = tokio::net::UdpSocket::from_std(send.try_clone()?)?;
                 (
-                    HotSocket::Udp(s),
+                    HotSocket::Udp(recv, send),
                     Some(SessionKey::from_bytes(welcome.session_key)),
                 )
             }

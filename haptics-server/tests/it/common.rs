@@ -81,3 +81,24 @@ pub async fn stream(
     }
     last.expect("n > 0")
 }
+
+/// Answer cursor samples with `make(cursor)` until `done(cursor)` holds for a received sample
+/// (a command stream keeps the watchdog fed while waiting), panicking with `what` after 20 s.
+pub async fn stream_until(
+    client: &mut Client,
+    what: &str,
+    make: impl Fn(&CursorSample) -> ForceCommand,
+    mut done: impl FnMut(&CursorSample) -> bool,
+) -> CursorSample {
+    let start = Instant::now();
+    loop {
+        let c = stream(client, 1, &make).await;
+        if done(&c) {
+            return c;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "timed out waiting for {what}; last {c:?}"
+        );
+    }
+}

@@ -7,7 +7,7 @@ use haptics_server::server::TransportKind;
 use protocol::control::{ClockPing, EmergencyStop};
 use protocol::{Control, ForceCommand, LocalModel, ModelKind};
 
-use crate::common::{connect, constant, eventually, server, stream};
+use crate::common::{connect, constant, eventually, server, stream, stream_until};
 
 async fn handshake_stream_and_force(kind: TransportKind) {
     let (server, monitor) = server(kind, Duration::from_secs(5));
@@ -25,19 +25,14 @@ async fn handshake_stream_and_force(kind: TransportKind) {
 
     // A constant force reaches the device (after the ramp).
     let f = Vec3::new(0.3, 0.0, 0.0);
-    let mut reached = false;
-    for _ in 0..40 {
-        stream(&mut client, 50, |_| constant(f, (0, 0))).await;
-        if (monitor.last_force() - f).length() < 1e-5 {
-            reached = true;
-            break;
-        }
-    }
-    assert!(
-        reached,
-        "device force {} never reached {f}",
-        monitor.last_force()
-    );
+    let at_device = |_: &protocol::CursorSample| (monitor.last_force() - f).length() < 1e-5;
+    stream_until(
+        &mut client,
+        "the force at the device",
+        |_| constant(f, (0, 0)),
+        at_device,
+    )
+    .await;
 
     // A plane model 2 mm above the stylus: the server renders k × penetration at the *current*
     // position every tick; the stylus (closed loop) settles where the hand and the wall balance.
@@ -54,18 +49,23 @@ async fn handshake_stream_and_force(kind: TransportKind) {
         },
         ..constant(Vec3::ZERO, (0, 0))
     };
-    let c = stream(&mut client, 600, |_| plane).await;
-    let expected = 500.0 * (0.002 - c.position.y);
-    assert!(
-        expected > 0.05 && c.output_force.y > 0.05,
-        "pushes out: {c:?}"
-    );
-    assert!(
-        (c.output_force.y - expected).abs() < 0.02,
-        "F {} vs k·d {expected}",
-        c.output_force.y
-    );
-    assert!(c.output_force.x.abs() < 1e-4 && c.output_force.z.abs() < 1e-4);
+    let k_times_d = |c: &protocol::CursorSample| 500.0 * (0.002 - c.position.y);
+    let settled = |c: &protocol::CursorSample| {
+        let f = c.output_force;
+        c.engaged
+            && k_times_d(c) > 0.05
+            && (f.y - k_times_d(c)).abs() < 0.02
+            && f.x.abs() < 1e-4
+            && f.z.abs() < 1e-4
+    };
+    let c = stream_until(
+        &mut client,
+        "F = k·d at the current position",
+        |_| plane,
+        settled,
+    )
+    .await;
+    assert!(c.output_force.y > 0.0, "pushes out, never pulls: {c:?}");
 
     // Clock ping and periodic stats on the control channel.
     client
@@ -73,9 +73,13 @@ async fn handshake_stream_and_force(kind: TransportKind) {
         .send(&Control::ClockPing(ClockPing { id: 7, t0_ns: 1 }))
         .await
         .unwrap();
+    // Stats arrive every 200 ms (older ones may be queued): read until a recent one.
     let mut pong = false;
-    let mut stats = None;
-    while !(pong && stats.is_some()) {
+    let mut stats: Option<protocol::control::Stats> = None;
+    let recent = |s: &Option<protocol::control::Stats>| {
+        s.is_some_and(|s| s.ticks > 300 && s.packets_in > 300)
+    };
+    while !(pong && recent(&stats)) {
         match tokio::time::timeout(Duration::from_secs(20), client.control.recv())
             .await
             .unwrap()
@@ -86,15 +90,18 @@ async fn handshake_stream_and_force(kind: TransportKind) {
                 assert!(p.t2_ns >= p.t1_ns);
                 pong = true;
             }
-            Control::Stats(s) => stats = Some(s),
+            Control::Stats(s) => {
+                assert!(
+                    stats.is_none_or(|old| s.ticks >= old.ticks),
+                    "stats go forward"
+                );
+                stats = Some(s);
+            }
             other => panic!("unexpected {other:?}"),
         }
     }
     let s = stats.unwrap();
-    assert!(
-        s.ticks > 300 && s.packets_in > 300 && s.packets_out > 300,
-        "{s:?}"
-    );
+    assert!(s.packets_out > 300, "{s:?}");
     assert_eq!(s.rejected.total(), 0, "{s:?}");
     client.control.close("test done").await.unwrap();
     eventually("session to end", || server.active_session().is_none()).await;
@@ -119,10 +126,13 @@ async fn emergency_stop(kind: TransportKind) {
     let (server, monitor) = server(kind, Duration::from_secs(5));
     let mut client = connect(&server, kind).await;
     let f = Vec3::new(0.0, 0.0, 0.4);
-    stream(&mut client, 400, |_| constant(f, (0, 0))).await;
-    eventually("force applied", || {
-        (monitor.last_force() - f).length() < 1e-5
-    })
+    let at_device = |_: &protocol::CursorSample| (monitor.last_force() - f).length() < 1e-5;
+    stream_until(
+        &mut client,
+        "force applied",
+        |_| constant(f, (0, 0)),
+        at_device,
+    )
     .await;
     client
         .control

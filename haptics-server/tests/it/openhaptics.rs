@@ -8,7 +8,7 @@ use glam::Vec3;
 use haptics_server::device::openhaptics::{OpenHapticsDevice, probe};
 use haptics_server::server::{Server, ServerOptions, TransportKind};
 
-use crate::common::{config, constant, eventually, stream};
+use crate::common::{config, constant, stream_until};
 
 /// Compile the stand-in into `dir`; `defines` adds `-D` flags.
 fn build(dir: &Path, name: &str, defines: &[&str]) -> PathBuf {
@@ -88,17 +88,30 @@ async fn the_hd_scheduler_drives_the_servo_loop_and_forces_reach_the_device() {
         .await
         .unwrap();
     let f = Vec3::new(0.0, 0.0, 0.5);
-    stream(&mut client, 400, |_| constant(f, (0, 0))).await;
-    eventually("the stand-in device outputs the force", || {
-        (read_force() - f).length() < 1e-5
-    })
+    let at_device = |_: &protocol::CursorSample| (read_force() - f).length() < 1e-5;
+    stream_until(
+        &mut client,
+        "the stand-in outputs the force",
+        |_| constant(f, (0, 0)),
+        at_device,
+    )
     .await;
     // SAFETY: plain C call.
     let before = unsafe { frames() };
-    assert!(before > 300, "the HD scheduler ran the frames: {before}");
+    let ticks = server.servo_stats().ticks;
+    assert!(
+        ticks > 10 && ticks <= before as u64,
+        "every servo tick ran in an HD frame: {ticks} ticks, {before} frames"
+    );
     // The stylus moved under the force (closed loop through the stand-in's dynamics).
-    let c = stream(&mut client, 50, |_| constant(f, (0, 0))).await;
-    assert!(c.position.z > 0.001, "{c:?}");
+    let pushed = |c: &protocol::CursorSample| c.position.z > 0.001;
+    stream_until(
+        &mut client,
+        "the stylus pushed along +z",
+        |_| constant(f, (0, 0)),
+        pushed,
+    )
+    .await;
     drop(client);
     server.shutdown();
     tokio::time::sleep(Duration::from_millis(20)).await;

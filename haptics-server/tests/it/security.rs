@@ -11,7 +11,7 @@ use crate::common::{connect, constant, eventually, server};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn udp_forged_and_malformed_packets_are_counted_and_ignored() {
-    let (server, monitor) = server(TransportKind::Udp, Duration::from_secs(10));
+    let (server, monitor) = server(TransportKind::Udp, Duration::from_secs(120));
     let mut client = connect(&server, TransportKind::Udp).await;
     // Wait for the stream to open (the server has our address, opener seq 0 accepted).
     tokio::time::timeout(Duration::from_secs(20), client.hot.recv_cursor())
@@ -78,8 +78,18 @@ async fn udp_forged_and_malformed_packets_are_counted_and_ignored() {
     ];
     eventually("every forged packet counted", || {
         let r = server.stats().rejected;
-        eprintln!("{:?}", r.nonzero().collect::<Vec<_>>());
-        want.iter().all(|&(reason, n)| r.get(reason) == n)
+        let done = want.iter().all(|&(reason, n)| r.get(reason) == n);
+        if !done {
+            let st = server.stats();
+            eprintln!(
+                "so far: {:?} in {} seq {:?} next {}",
+                r.nonzero().collect::<Vec<_>>(),
+                st.packets_in,
+                st.force_sequence,
+                client.hot.next_sequence()
+            );
+        }
+        done
     })
     .await;
     assert_eq!(server.stats().rejected.total(), 9);
@@ -114,7 +124,7 @@ async fn udp_forged_and_malformed_packets_are_counted_and_ignored() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn quic_malformed_datagrams_are_counted_and_ignored() {
-    let (server, monitor) = server(TransportKind::Quic, Duration::from_secs(10));
+    let (server, monitor) = server(TransportKind::Quic, Duration::from_secs(120));
     let mut client = connect(&server, TransportKind::Quic).await;
     tokio::time::timeout(Duration::from_secs(20), client.hot.recv_cursor())
         .await

@@ -7,12 +7,20 @@ use haptics_server::client::{Client, ClientError};
 use haptics_server::server::TransportKind;
 use protocol::control::ErrorCode;
 
-use crate::common::{config, connect, constant, eventually, server, stream};
+use crate::common::{config, connect, constant, eventually, server, stream, stream_until};
 
 async fn second_client_is_refused_then_restart_survived(kind: TransportKind) {
-    let (server, monitor) = server(kind, Duration::from_millis(400));
+    let (server, monitor) = server(kind, Duration::from_millis(600));
     let mut a = connect(&server, kind).await;
     stream(&mut a, 50, |_| constant(Vec3::ZERO, (0, 0))).await;
+    // Keep A streaming while B tries, so A is never idle, however slow the handshake is.
+    let (stop, mut stopped) = tokio::sync::watch::channel(false);
+    let keep = tokio::spawn(async move {
+        while !*stopped.borrow_and_update() {
+            stream(&mut a, 1, |_| constant(Vec3::ZERO, (0, 0))).await;
+        }
+        a
+    });
     match Client::connect(&config(&server, kind)).await {
         Err(ClientError::Refused {
             code: ErrorCode::Busy,
@@ -20,6 +28,8 @@ async fn second_client_is_refused_then_restart_survived(kind: TransportKind) {
         }) => assert!(message.contains("busy"), "{message}"),
         other => panic!("expected Busy, got {other:?}"),
     }
+    stop.send(true).unwrap();
+    let mut a = keep.await.unwrap();
     assert_eq!(server.refused_busy(), 1);
     stream(&mut a, 50, |_| constant(Vec3::ZERO, (0, 0))).await;
 
@@ -31,10 +41,13 @@ async fn second_client_is_refused_then_restart_survived(kind: TransportKind) {
     .await;
     let mut b = connect(&server, kind).await;
     let f = Vec3::new(0.0, 0.2, 0.0);
-    stream(&mut b, 400, |_| constant(f, (0, 0))).await;
-    eventually("force from the new session", || {
-        (monitor.last_force() - f).length() < 1e-5
-    })
+    let at_device = |_: &protocol::CursorSample| (monitor.last_force() - f).length() < 1e-5;
+    stream_until(
+        &mut b,
+        "force from the new session",
+        |_| constant(f, (0, 0)),
+        at_device,
+    )
     .await;
 
     // The workstation hangs (control open, hot path silent): the watchdog fades the force,
