@@ -4,7 +4,8 @@
 //! [`ContactModel`] the server renders ([`protocol::model::ModelRenderer`]) at the *current*
 //! cursor until the next command. [`ContactModel::to_wire`] is the only place scene values
 //! become wire values: it clamps to the protocol's limits (the server clamps further to its
-//! device) and replaces non-finite values by an inert model, so the packet always validates.
+//! device) and replaces a non-finite model, or a plane without a normal, by an inert one
+//! (`None`), so the packet always validates.
 
 use glam::{DVec3, Vec3};
 use protocol::packet::{
@@ -65,16 +66,17 @@ impl ContactModel {
         } else {
             0
         };
-        if !finite || self.kind == ModelKind::None {
+        let normal = self.normal.try_normalize();
+        let plane_without_normal = self.kind == ModelKind::Plane && normal.is_none();
+        if !finite || self.kind == ModelKind::None || plane_without_normal {
             return LocalModel {
                 lifetime_us,
                 ..LocalModel::default()
             };
         }
-        let normal = if self.kind == ModelKind::Plane {
-            self.normal.normalize_or_zero().as_vec3()
-        } else {
-            Vec3::ZERO
+        let normal = match (self.kind, normal) {
+            (ModelKind::Plane, Some(n)) => n.as_vec3(),
+            _ => Vec3::ZERO,
         };
         let lim = LIMIT_POSITION_M as f64;
         LocalModel {

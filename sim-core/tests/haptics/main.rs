@@ -8,3 +8,4 @@ mod field;
 mod plots;
 mod probe;
 mod reaction;
+mod wire;
