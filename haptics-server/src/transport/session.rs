@@ -174,6 +174,7 @@ where
     let mut buf = [0u8; 4096];
     let mut check = tokio::time::interval(Duration::from_millis(20));
     let mut last_stats = tokio::time::Instant::now();
+    let mut rejected_logged = 0u64;
     loop {
         loop {
             let msg = match dec.next_message() {
@@ -227,7 +228,14 @@ where
                 }
                 if last_stats.elapsed() >= shared.net.stats_interval {
                     last_stats = tokio::time::Instant::now();
-                    write_control(wr, &Control::Stats(shared.stats(Some(hot)))).await?;
+                    let stats = shared.stats(Some(hot));
+                    if stats.rejected.total() > rejected_logged {
+                        rejected_logged = stats.rejected.total();
+                        let by_reason: Vec<_> = stats.rejected.nonzero().collect();
+                        tracing::warn!(?by_reason, "hot-path packets rejected so far (none reached the device)");
+                    }
+                    tracing::debug!(packets_in = stats.packets_in, packets_out = stats.packets_out, ticks = stats.ticks, "session stats");
+                    write_control(wr, &Control::Stats(stats)).await?;
                 }
             }
         }
