@@ -232,8 +232,13 @@ pub fn open(
         }) && product.is_none_or(|p| p == d.product_id())
     });
     let Some(d) = found else {
+        let wanted = match (vendor, product) {
+            (None, _) => "no 3Dconnexion (SpaceMouse) HID device is attached".to_owned(),
+            (Some(v), None) => format!("no HID device with vendor id {v:04x} is attached"),
+            (Some(v), Some(p)) => format!("no HID device {v:04x}:{p:04x} is attached"),
+        };
         return Err(DeviceError::Open(format!(
-            "no HID device matches vendor {vendor:04x?} product {product:04x?}; `haptics-server devices` lists what is attached"
+            "{wanted}; `haptics-server devices` lists what is attached"
         )));
     };
     let name = d.product_string().unwrap_or("HID device").to_owned();
