@@ -8,12 +8,11 @@
 //!   contact. Error: against seed 004 Fig. 4 in closed form.
 //! - Continuity: largest force jump (N/mm) and direction turn (°/mm) sweeping a probe through
 //!   a sheet and across a sharp edge, for both direction methods.
-//! - B-spline sculpting: one 1 kHz tick of a 30×30 dual with the probe pressing.
+//! - B-spline sculpting: one 1 kHz tick of a 30×30 dual with the probe pressing, and the
+//!   headless demo of the B-spline probe scene.
 //!
 //! Each timed query is bracketed by two `Instant::now()` reads (≈20–30 ns of the figure);
 //! `--repeats` runs give the spread of the p99.
-
-use std::time::Instant;
 
 use glam::DVec3;
 use serde::Serialize;
@@ -24,6 +23,13 @@ use sim_core::probe::fixtures::{edge, fig4_force, sheet, sweep};
 use sim_core::probe::{
     ContactParams, DirectionMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
+
+use crate::scenes::bspline_probe::{BsplineProbeScene, SceneConfig};
+
+mod timing;
+
+pub use timing::Timing;
+use timing::time_runs;
 
 /// Parsed arguments.
 #[derive(Debug, Clone, clap::Args)]
@@ -46,21 +52,6 @@ pub struct BenchForceArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-}
-
-/// Percentiles of one timed query, µs, and the spread of the p99 across runs.
-#[derive(Debug, Clone, Copy, Serialize, Default)]
-pub struct Timing {
-    /// Median over all runs.
-    pub p50: f64,
-    /// Median of the runs' p99.
-    pub p99: f64,
-    /// Smallest run p99.
-    pub p99_min: f64,
-    /// Largest run p99.
-    pub p99_max: f64,
-    /// 99.9th percentile over all runs.
-    pub p999: f64,
 }
 
 /// Everything bench-force measures.
@@ -101,42 +92,25 @@ pub struct BenchForceReport {
     pub sheet_min_normal_force_n: [f64; 2],
     /// One pressed 1 kHz tick of the 30×30 B-spline dual, µs.
     pub sculpt_tick_us: Timing,
+    /// The B-spline probe scene's scripted demo (push from the front, pull from behind), headless.
+    pub scene: SceneSummary,
 }
 
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    let i = ((sorted.len() - 1) as f64 * q).round() as usize;
-    sorted[i]
-}
-
-/// Time `query(i)` for `i in 0..n` per run, `repeats` runs, after one untimed warm-up run.
-fn time_runs(repeats: usize, n: usize, mut query: impl FnMut(usize)) -> Timing {
-    (0..n.min(1000)).for_each(&mut query);
-    let mut all = Vec::with_capacity(repeats * n);
-    let mut p99s = Vec::with_capacity(repeats);
-    let mut run = Vec::with_capacity(n);
-    for _ in 0..repeats.max(1) {
-        run.clear();
-        for i in 0..n {
-            let t0 = Instant::now();
-            query(i);
-            run.push(t0.elapsed().as_secs_f64() * 1e6);
-        }
-        run.sort_by(f64::total_cmp);
-        p99s.push(percentile(&run, 0.99));
-        all.extend_from_slice(&run);
-    }
-    all.sort_by(f64::total_cmp);
-    p99s.sort_by(f64::total_cmp);
-    Timing {
-        p50: percentile(&all, 0.5),
-        p99: percentile(&p99s, 0.5),
-        p99_min: p99s[0],
-        p99_max: p99s[p99s.len() - 1],
-        p999: percentile(&all, 0.999),
-    }
+/// What the B-spline probe scene's demo script felt and made.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct SceneSummary {
+    /// Haptic ticks run (1 kHz).
+    pub ticks: usize,
+    /// Largest force on the user, N.
+    pub peak_force_n: f64,
+    /// Largest reaction while sculpting, N.
+    pub peak_reaction_n: f64,
+    /// Largest server-vs-workstation force difference at the same cursor, N.
+    pub max_model_mismatch_n: f64,
+    /// Final dent depth and bulge height, m.
+    pub dent_m: f64,
+    /// Final bulge height, m.
+    pub bulge_m: f64,
 }
 
 fn field_params(r: f64) -> FieldContactParams {
@@ -255,6 +229,8 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
     }
 
     let sculpt_t = time_sculpt(args.repeats, 2000)?;
+    let mut scene = BsplineProbeScene::new(SceneConfig::default())?;
+    let demo = scene.run_script(&BsplineProbeScene::demo_script())?;
     std::hint::black_box(sink);
     Ok(BenchForceReport {
         field_query_us_p99: field_t.p99,
@@ -286,6 +262,14 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
             sheet_sweeps[1].min_along_watch_n,
         ],
         sculpt_tick_us: sculpt_t,
+        scene: SceneSummary {
+            ticks: demo.ticks,
+            peak_force_n: demo.peak_force_n,
+            peak_reaction_n: demo.peak_reaction_n,
+            max_model_mismatch_n: demo.max_model_mismatch_n,
+            dent_m: demo.final_dent_m,
+            bulge_m: demo.final_bulge_m,
+        },
     })
 }
 
@@ -355,5 +339,15 @@ pub fn print(r: &BenchForceReport, json: bool) -> anyhow::Result<()> {
         r.edge_jump_n_per_mm, r.edge_turn_deg_per_mm
     );
     t("sculpt tick 30×30", &r.sculpt_tick_us);
+    let d = &r.scene;
+    println!(
+        "scene demo: {} ticks, peak force {:.3} N (sculpting {:.3} N), dent {:.2} mm, bulge {:.2} mm, server mismatch {:.1e} N",
+        d.ticks,
+        d.peak_force_n,
+        d.peak_reaction_n,
+        d.dent_m * 1e3,
+        d.bulge_m * 1e3,
+        d.max_model_mismatch_n
+    );
     Ok(())
 }
