@@ -59,6 +59,9 @@ pub struct FollowReport {
     pub max_move: f64,
     /// Exact evaluations of `f_base` (Taylor-model refreshes).
     pub exact_evaluations: usize,
+    /// Points left where they were because no zero set was within one grid spacing (the
+    /// surface vanished under them, e.g. a thin shell pushed through itself).
+    pub stranded: usize,
 }
 
 /// Per-point cache: Taylor model of `f_base` and the displacement last followed.
@@ -201,6 +204,10 @@ impl Follower {
             let i = i as usize;
             report.visited += 1;
             report.exact_evaluations += usize::from(exact);
+            if residual > model.spec().spacing {
+                report.stranded += 1;
+                continue;
+            }
             report.max_residual = report.max_residual.max(residual);
             report.max_move = report.max_move.max(x.distance(points[i]));
             points[i] = x;
@@ -217,6 +224,7 @@ impl Follower {
 /// One point's update: `None` when the field near it has not changed. The Eq. 9 predictor uses
 /// the stored unit normal (the field is distance-like, `‖∇F‖ ≈ 1`; Newton corrects the rest),
 /// then `newton_steps` Newton steps on `F`, then one evaluation for the normal and residual.
+/// The caller discards updates whose residual exceeds a grid spacing (stranded points).
 /// The flag says whether `f_base` was evaluated exactly.
 fn follow_point(
     base: &GlobalField,

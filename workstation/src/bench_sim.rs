@@ -233,6 +233,7 @@ fn timed_run(
         radius: 0.4 * RADIUS,
         strength: params.node.anchor * 0.1 * RADIUS,
         profile: Profile::Gaussian,
+        sheet: None,
     };
     let warmup = 20.min(args.steps);
     let (mut step, mut tools, mut integ, mut follow, mut publish) =

@@ -248,6 +248,11 @@ impl DynamicGrid {
         self.rest[g]
     }
 
+    /// Rest values `d⁰` of every grid node (x fastest).
+    pub fn rest_values(&self) -> &[f64] {
+        &self.rest
+    }
+
     /// Current value `d = d⁰ + u` at grid node `g`.
     #[inline]
     pub fn value(&self, g: usize) -> f64 {

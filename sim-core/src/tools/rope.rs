@@ -8,6 +8,7 @@
 use glam::DVec3;
 
 use crate::dynamics::DynamicGrid;
+use crate::grid::node_gradient;
 use crate::tools::{ToolError, finite, positive};
 
 /// Radial force profile `w(t)`, `t = r / radius`, with `w(0) = 1` and `w = 0` for `t ≥ 1`.
@@ -72,6 +73,11 @@ pub struct Rope {
     pub strength: f64,
     /// Force distribution.
     pub profile: Profile,
+    /// The picked sheet's outward normal: when set, each node's force is scaled by
+    /// `max(0, n̂·∇d⁰/‖∇d⁰‖)`, so on a thin shell only the picked sheet's side of the slab is
+    /// pulled (nodes nearer the other sheet have the opposite rest gradient). `None`: all nodes.
+    #[serde(default)]
+    pub sheet: Option<DVec3>,
 }
 
 impl Rope {
@@ -85,6 +91,12 @@ impl Rope {
         }
         positive("radius", self.radius)?;
         finite("strength", self.strength)?;
+        if self.sheet.is_some_and(|n| n.try_normalize().is_none()) {
+            return Err(ToolError::Param {
+                name: "sheet",
+                reason: "must be a finite non-zero vector",
+            });
+        }
         self.profile.validate()
     }
 
@@ -135,9 +147,15 @@ impl Rope {
                     let Some(s) = model.slot(spec.index(i, j, k)) else {
                         continue;
                     };
-                    let w = self
+                    let mut w = self
                         .profile
                         .weight(self.distance(spec.node_position(i, j, k)) / self.radius);
+                    if let (Some(n), true) = (self.sheet, w != 0.0) {
+                        let g = node_gradient(&spec, model.rest_values(), i, j, k);
+                        w *= g
+                            .try_normalize()
+                            .map_or(0.0, |g| g.dot(n.normalize()).max(0.0));
+                    }
                     if w != 0.0 {
                         model.add_force(s, -self.strength * w);
                         touched += 1;

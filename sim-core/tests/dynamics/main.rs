@@ -6,4 +6,5 @@ mod csg;
 mod integrators;
 mod rope;
 mod scene;
+mod shell;
 mod tools;

@@ -48,6 +48,7 @@ fn pulled_sphere(profile: Profile) -> (Scene, Vec<DVec3>) {
         radius: REACH,
         strength: ANCHOR * PEAK,
         profile,
+        sheet: None,
     };
     for _ in 0..300 {
         scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
@@ -162,6 +163,7 @@ fn curve_rope_raises_a_ridge() {
         radius: 0.08,
         strength: ANCHOR * PEAK,
         profile: Profile::Table(vec![1.0, 1.0, 0.5, 0.0]),
+        sheet: None,
     };
     for _ in 0..300 {
         scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();

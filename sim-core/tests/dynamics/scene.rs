@@ -29,6 +29,7 @@ fn run(statics: usize) -> Scene {
         radius: 0.1,
         strength: 0.5,
         profile: Profile::Gaussian,
+        sheet: None,
     };
     for _ in 0..100 {
         scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
