@@ -10,6 +10,11 @@
 //! [`reconstruct`] runs all stages; [`sampling`] makes analytic test shapes with exact signed
 //! distances; [`accuracy`] measures a zero set against a reference; [`io`] reads and writes
 //! PLY, OFF, OBJ, XYZ/PWN and STL.
+//!
+//! Haptic rendering (DESIGN §4–5): [`haptic`] (Kim-style field force with a virtual contact
+//! point, friction and damping; the local contact models the haptics server renders; the
+//! sculpting reaction), [`probe`] (the shaped ellipsoid probe of seed 004) and
+//! [`bspline_surface`] (a B-spline patch with its mass-spring dual, sculpted by the probe).
 
 pub mod accuracy;
 pub mod bspline;
