@@ -4,7 +4,8 @@
 //! - [`Probe`]: the implicit ellipsoid `f_p(x) = ‖S⁻¹Rᵀ(x − c)‖² − 1` (negative inside), posed by
 //!   the device's 6-DOF transform, semi-axes changeable at run time.
 //! - [`SampleGrid`]: surface samples (position, outward unit normal, area) binned in a uniform
-//!   grid so a query only tests samples whose cells overlap the probe's bounding box.
+//!   grid so a query only tests samples in cells that overlap the probe's bounding box and
+//!   bounding ball.
 //! - [`ProbeRenderer`]: the force query. A sample strictly inside the probe is in contact; its
 //!   depth `d_i` is the distance along its normal line to the *nearer* probe-surface crossing
 //!   (analytic quadratic root). Magnitude `max(0, k_s Σ a_i d_i − b_s A (v·u))`, direction `u`

@@ -3,7 +3,7 @@
 //! (from behind).
 //!
 //! Per haptic tick the scene runs [`ProbeSculptor::tick`] at the probe pose (1 kHz), converts
-//! the force and local model to the wire once ([`HapticOutput::to_command`]) and, at the display
+//! the force and local model to the wire once ([`sim_core::haptic::HapticOutput::to_command`]) and, at the display
 //! rate, recovers the control net (`P = A⁻¹ M A⁻ᵀ`). [`BsplineProbeScene::run_script`] drives it
 //! headless along a scripted path and reports what a user would have felt and made; it also
 //! renders every command with the server's [`ModelRenderer`] at the same cursor, so the report
