@@ -10,3 +10,4 @@ mod openhaptics;
 mod record;
 mod security;
 mod sessions;
+mod virtual_link;
