@@ -278,6 +278,12 @@ impl HotPath {
         self.key.as_ref()
     }
 
+    /// The client clock that stamps force commands; use it for `ClockPing.t0_ns` and the
+    /// pong's receive time so [`protocol::ClockEstimator`] relates the same clocks.
+    pub fn clock(&self) -> MonoClock {
+        self.clock
+    }
+
     /// The sequence number the next force command will carry.
     pub fn next_sequence(&self) -> u32 {
         self.outbound.next_sequence()
