@@ -11,7 +11,7 @@ use sim_core::haptic::fixtures::{AnalyticField, contact_points};
 use sim_core::haptic::{FieldContactParams, FieldForce};
 use sim_core::probe::fixtures::sheet;
 use sim_core::probe::{
-    ContactParams, DirectionMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
 
 const R: f64 = 0.02;
@@ -67,6 +67,7 @@ fn probe(c: &mut Criterion) {
             surface_stiffness: 1e6,
             surface_damping: 20.0,
             method,
+            magnitude: MagnitudeMethod::SpringSum,
         };
         let mut r = ProbeRenderer::new(params, record).unwrap();
         let probe = Probe::sphere(R)
@@ -92,6 +93,7 @@ fn sculpt(c: &mut Criterion) {
         surface_stiffness: 5.0e6,
         surface_damping: 0.0,
         method: DirectionMethod::SurfaceNormal,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     let patch = BicubicPatch::flat(30, 0.05).unwrap();
     let mut s = ProbeSculptor::new(patch, mesh, contact, 0.005, 0.01).unwrap();

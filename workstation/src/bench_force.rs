@@ -19,14 +19,18 @@ use serde::Serialize;
 use sim_core::bspline_surface::{BicubicPatch, MeshParams, ProbeSculptor};
 use sim_core::haptic::fixtures::{AnalyticField, contact_points, force_errors};
 use sim_core::haptic::{FieldContactParams, FieldForce};
-use sim_core::probe::fixtures::{edge, fig4_force, sheet, sweep};
+use sim_core::probe::fixtures::{fig4_force, sheet};
 use sim_core::probe::{
-    ContactParams, DirectionMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
 
 use crate::scenes::bspline_probe::{BsplineProbeScene, SceneConfig};
 
+mod continuity;
 mod timing;
+
+pub use continuity::ContinuityRow;
+use continuity::continuity;
 
 pub use timing::Timing;
 use timing::time_runs;
@@ -81,7 +85,8 @@ pub struct BenchForceReport {
     pub probe_query_recorded_us: Timing,
     /// Largest relative probe-force error against seed 004 Fig. 4 in closed form.
     pub probe_force_rel_error: f64,
-    /// Force jump through a sheet, N/mm: [surface normal, probe normal].
+    /// Force jump through a sheet, N/mm: [surface normal, probe normal] (seed 004's spring sum;
+    /// all methods in `continuity`).
     pub sheet_jump_n_per_mm: [f64; 2],
     /// Force jump across a sharp edge, N/mm: [surface normal, probe normal].
     pub edge_jump_n_per_mm: [f64; 2],
@@ -92,6 +97,8 @@ pub struct BenchForceReport {
     pub sheet_min_normal_force_n: [f64; 2],
     /// One pressed 1 kHz tick of the 30×30 B-spline dual, µs.
     pub sculpt_tick_us: Timing,
+    /// Every direction × magnitude method through a sheet, a 2 mm wall and over an edge.
+    pub continuity: Vec<ContinuityRow>,
     /// The B-spline probe scene's scripted demo (push from the front, pull from behind), headless.
     pub scene: SceneSummary,
 }
@@ -163,6 +170,7 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
         surface_stiffness: ks,
         surface_damping: 20.0,
         method,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     let mut pr = ProbeRenderer::new(contact(DirectionMethod::SurfaceNormal), 0)?;
     let mut recording =
@@ -203,30 +211,8 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
     let timed_probe_queries =
         (args.queries.max(1) / 4) * args.repeats.max(1) + (args.queries.max(1) / 4).min(1000);
 
-    // Continuity sweeps.
-    let methods = [DirectionMethod::SurfaceNormal, DirectionMethod::ProbeNormal];
-    let sheet_grid = SampleGrid::new(&sheet(1.5 * r, r / 25.0), r / 3.0)?;
-    let edge_grid = SampleGrid::new(&edge(3.0 * r, r / 25.0), r / 3.0)?;
-    let base = Probe::sphere(r)?;
-    let mut sheet_sweeps = Vec::new();
-    let mut edge_sweeps = Vec::new();
-    for m in methods {
-        let mut rr = ProbeRenderer::new(
-            ContactParams {
-                surface_damping: 0.0,
-                ..contact(m)
-            },
-            8192,
-        )?;
-        let (a, b) = (
-            DVec3::new(0.003, 0.002, 1.1 * r),
-            DVec3::new(0.003, 0.002, -1.1 * r),
-        );
-        sheet_sweeps.push(sweep(&mut rr, &base, &sheet_grid, a, b, 440, DVec3::Z));
-        let z = r - 0.1 * r;
-        let (a, b) = (DVec3::new(-1.5 * r, 0.0, z), DVec3::new(1.2 * r, 0.0, z));
-        edge_sweeps.push(sweep(&mut rr, &base, &edge_grid, a, b, 540, DVec3::Z));
-    }
+    let rows = continuity(r, ks)?;
+    let (sn, pn) = (&rows[0], &rows[1]);
 
     let sculpt_t = time_sculpt(args.repeats, 2000)?;
     let mut scene = BsplineProbeScene::new(SceneConfig::default())?;
@@ -245,23 +231,12 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
         probe_query_us: probe_t,
         probe_query_recorded_us: recorded_t,
         probe_force_rel_error: probe_err,
-        sheet_jump_n_per_mm: [
-            sheet_sweeps[0].max_jump_n_per_mm,
-            sheet_sweeps[1].max_jump_n_per_mm,
-        ],
-        edge_jump_n_per_mm: [
-            edge_sweeps[0].max_jump_n_per_mm,
-            edge_sweeps[1].max_jump_n_per_mm,
-        ],
-        edge_turn_deg_per_mm: [
-            edge_sweeps[0].max_turn_deg_per_mm,
-            edge_sweeps[1].max_turn_deg_per_mm,
-        ],
-        sheet_min_normal_force_n: [
-            sheet_sweeps[0].min_along_watch_n,
-            sheet_sweeps[1].min_along_watch_n,
-        ],
+        sheet_jump_n_per_mm: [sn.sheet_jump_n_per_mm, pn.sheet_jump_n_per_mm],
+        edge_jump_n_per_mm: [sn.edge_jump_n_per_mm, pn.edge_jump_n_per_mm],
+        edge_turn_deg_per_mm: [sn.edge_turn_deg_per_mm, pn.edge_turn_deg_per_mm],
+        sheet_min_normal_force_n: [sn.sheet_min_normal_force_n, pn.sheet_min_normal_force_n],
         sculpt_tick_us: sculpt_t,
+        continuity: rows.clone(),
         scene: SceneSummary {
             ticks: demo.ticks,
             peak_force_n: demo.peak_force_n,
@@ -287,6 +262,7 @@ fn time_sculpt(repeats: usize, ticks: usize) -> anyhow::Result<Timing> {
         surface_stiffness: 5.0e6,
         surface_damping: 1.5e4,
         method: DirectionMethod::SurfaceNormal,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     let mut s = ProbeSculptor::new(BicubicPatch::flat(30, 0.05)?, mesh, contact, 0.005, 0.01)?;
     let probe = Probe::sphere(0.008)?.posed(ProbePose::at(DVec3::new(0.0, 0.0, 0.003)))?;
@@ -331,13 +307,29 @@ pub fn print(r: &BenchForceReport, json: bool) -> anyhow::Result<()> {
         r.probe_contacts, r.probe_force_rel_error
     );
     println!(
-        "  sheet jump N/mm [surface, probe] {:.3?}, min normal force N {:.3?}",
-        r.sheet_jump_n_per_mm, r.sheet_min_normal_force_n
+        "  {:<14} {:<10} {:>10} {:>9} {:>10} {:>8} {:>10} {:>9}",
+        "direction",
+        "magnitude",
+        "sheet N/mm",
+        "min Fz N",
+        "wall N/mm",
+        "wall N",
+        "edge N/mm",
+        "edge °/mm"
     );
-    println!(
-        "  edge  jump N/mm {:.3?}, turn °/mm {:.2?}",
-        r.edge_jump_n_per_mm, r.edge_turn_deg_per_mm
-    );
+    for c in &r.continuity {
+        println!(
+            "  {:<14} {:<10} {:>10.3} {:>9.3} {:>10.3} {:>8.3} {:>10.3} {:>9.2}",
+            c.method,
+            c.magnitude,
+            c.sheet_jump_n_per_mm,
+            c.sheet_min_normal_force_n,
+            c.wall_jump_n_per_mm,
+            c.wall_peak_n,
+            c.edge_jump_n_per_mm,
+            c.edge_turn_deg_per_mm
+        );
+    }
     t("sculpt tick 30×30", &r.sculpt_tick_us);
     let d = &r.scene;
     println!(

@@ -18,6 +18,21 @@ pub enum DirectionMethod {
     ProbeNormal,
 }
 
+/// How the distributed springs add up to a force magnitude.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum MagnitudeMethod {
+    /// Seed 004 / DESIGN §4: `|F| = k_s Σ a_i d_i`, the springs' scalar sum, along the
+    /// normalised direction. Where the direction sum cancels (the probe-normal method at a
+    /// crossing, or any method midway through a two-faced thin wall) the force jumps between
+    /// ±|F| over one step.
+    #[default]
+    SpringSum,
+    /// `F = k_s Σ a_i d_i ν_i` with `ν_i` the direction method's per-sample unit vector: each
+    /// spring pushes along its own direction. Continuous through cancellations (the force passes
+    /// through zero), and weaker over edges where normals disagree.
+    VectorSum,
+}
+
 /// Material of the distributed springs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactParams {
@@ -27,6 +42,8 @@ pub struct ContactParams {
     pub surface_damping: f64,
     /// Direction method.
     pub method: DirectionMethod,
+    /// How the springs add up.
+    pub magnitude: MagnitudeMethod,
 }
 
 impl ContactParams {
@@ -65,7 +82,7 @@ pub struct ProbeForce {
     pub force: DVec3,
     /// Unit force direction, or zero when nothing touches or the directions cancel.
     pub direction: DVec3,
-    /// Spring part of the magnitude `k_s Σ a_i d_i`, N.
+    /// Spring part of the magnitude (`k_s Σ a_i d_i`, or `|k_s Σ a_i d_i ν_i|`), N.
     pub spring: f64,
     /// Contact area `A = Σ a_i`, m².
     pub contact_area: f64,
@@ -198,7 +215,10 @@ impl ProbeRenderer {
             DirectionMethod::SurfaceNormal => sums.surface_dir,
             DirectionMethod::ProbeNormal => sums.probe_dir,
         };
-        let spring = p.surface_stiffness * sums.depth_area;
+        let spring = match p.magnitude {
+            MagnitudeMethod::SpringSum => p.surface_stiffness * sums.depth_area,
+            MagnitudeMethod::VectorSum => p.surface_stiffness * dir_sum.length(),
+        };
         let cancelled = dir_sum.length() <= tolerance::DIRECTION_CANCEL * sums.depth_area;
         let direction = if cancelled || !dir_sum.is_finite() {
             DVec3::ZERO

@@ -25,6 +25,20 @@ pub fn sheet(half: f64, spacing: f64) -> Vec<SurfaceSample> {
     out
 }
 
+/// A thin wall: the sheet `z = 0` (normal `+z`) and its back face `z = −thickness` (normal
+/// `−z`) over `[−half, half]²`.
+pub fn thin_wall(half: f64, spacing: f64, thickness: f64) -> Vec<SurfaceSample> {
+    let front = sheet(half, spacing);
+    let back = front.iter().map(|s| SurfaceSample {
+        position: s.position - DVec3::new(0.0, 0.0, thickness),
+        normal: -DVec3::Z,
+        area: s.area,
+    });
+    let mut out = front.clone();
+    out.extend(back);
+    out
+}
+
 /// A convex 90° edge along `y`: the top face `z = 0, x ≤ 0` (normal `+z`) and the side face
 /// `x = 0, z ≤ 0` (normal `+x`), each `half` deep, `2·half` long.
 pub fn edge(half: f64, spacing: f64) -> Vec<SurfaceSample> {

@@ -10,7 +10,9 @@
 //!   depth `d_i` is the distance along its normal line to the *nearer* probe-surface crossing
 //!   (analytic quadratic root). Magnitude `max(0, k_s Σ a_i d_i − b_s A (v·u))`, direction `u`
 //!   the depth-and-area-weighted mean of the surface normals `N_i` ([`DirectionMethod::SurfaceNormal`])
-//!   or of the inward probe normals at the samples ([`DirectionMethod::ProbeNormal`]).
+//!   or of the inward probe normals at the samples ([`DirectionMethod::ProbeNormal`]). With
+//!   [`MagnitudeMethod::VectorSum`] the springs add as vectors instead (continuous where the
+//!   direction sum cancels).
 //!
 //! Units and signs: metres, newtons, seconds; `k_s` in N/m per m² of contact area (N/m³), `b_s`
 //! in N·s/m per m²; sample normals point out of the sampled material; the force is the force *on
@@ -26,7 +28,9 @@ mod ellipsoid;
 pub mod fixtures;
 mod index;
 
-pub use contact::{Contact, ContactParams, DirectionMethod, ProbeForce, ProbeRenderer};
+pub use contact::{
+    Contact, ContactParams, DirectionMethod, MagnitudeMethod, ProbeForce, ProbeRenderer,
+};
 pub use ellipsoid::{Probe, ProbePose, RayCrossing};
 pub use index::{SampleGrid, SurfaceSample};
 

@@ -11,7 +11,7 @@ use sim_core::haptic::fixtures::AnalyticField;
 use sim_core::haptic::{FieldContactParams, FieldForce, ToolReaction};
 use sim_core::probe::fixtures::sheet;
 use sim_core::probe::{
-    ContactParams, DirectionMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
 
 struct Counting;
@@ -71,6 +71,7 @@ fn sculptor() -> ProbeSculptor {
         surface_stiffness: 5e6,
         surface_damping: 1.5e4,
         method: DirectionMethod::SurfaceNormal,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     ProbeSculptor::new(
         BicubicPatch::flat(12, 0.03).unwrap(),
@@ -102,6 +103,7 @@ fn haptic_queries_do_not_allocate_after_construction() {
         surface_stiffness: 1e6,
         surface_damping: 10.0,
         method: DirectionMethod::ProbeNormal,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     let mut pr = ProbeRenderer::new(contact, 10_000).unwrap();
     let probe = Probe::ellipsoid(DVec3::new(0.01, 0.006, 0.008))

@@ -7,7 +7,7 @@ use sim_core::bspline_surface::{
     BicubicPatch, DualMap, MassSpringMesh, MeshParams, ProbeSculptor, SurfaceError, cubic_basis,
     mass_parameter,
 };
-use sim_core::probe::{ContactParams, DirectionMethod, Probe, ProbePose};
+use sim_core::probe::{ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose};
 
 #[test]
 fn cubic_basis_sums_to_one_and_its_derivative_matches_finite_differences() {
@@ -94,6 +94,7 @@ fn contact() -> ContactParams {
         surface_stiffness: 5.0e6,
         surface_damping: 0.0,
         method: DirectionMethod::SurfaceNormal,
+        magnitude: MagnitudeMethod::SpringSum,
     }
 }
 

@@ -8,7 +8,7 @@ use sim_core::bspline_surface::{BicubicPatch, MeshParams, ProbeSculptor};
 use sim_core::haptic::fixtures::{AnalyticField, force_errors};
 use sim_core::probe::fixtures::{edge, fig4_force, sheet};
 use sim_core::probe::{
-    ContactParams, DirectionMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
 
 type Res = Result<(), Box<dyn std::error::Error>>;
@@ -38,6 +38,7 @@ fn renderer(method: DirectionMethod) -> ProbeRenderer {
             surface_stiffness: KS,
             surface_damping: 0.0,
             method,
+            magnitude: MagnitudeMethod::SpringSum,
         },
         8192,
     )
@@ -213,6 +214,7 @@ fn plots() -> Res {
             surface_stiffness: 5.0e6,
             surface_damping: 0.0,
             method: DirectionMethod::SurfaceNormal,
+            magnitude: MagnitudeMethod::SpringSum,
         };
         let n = 31;
         let mut s = ProbeSculptor::new(BicubicPatch::flat(n, 0.05)?, mesh, contact, 0.005, 0.01)?;
@@ -251,6 +253,7 @@ fn plots() -> Res {
         surface_stiffness: 5.0e6,
         surface_damping: 1.5e4,
         method: DirectionMethod::SurfaceNormal,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     let mut s = ProbeSculptor::new(BicubicPatch::flat(21, 0.05)?, mesh, contact, 0.005, 0.01)?;
     let mut probe = Probe::sphere(0.008)?;

@@ -5,8 +5,8 @@ use protocol::ModelRenderer;
 use protocol::packet::ModelKind;
 use sim_core::probe::fixtures::{edge, fig4_force, sheet, sweep};
 use sim_core::probe::{
-    ContactParams, DirectionMethod, Probe, ProbeError, ProbePose, ProbeRenderer, SampleGrid,
-    SurfaceSample,
+    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbeError, ProbePose, ProbeRenderer,
+    SampleGrid, SurfaceSample,
 };
 
 const R: f64 = 0.02;
@@ -17,6 +17,7 @@ fn renderer(method: DirectionMethod, damping: f64) -> ProbeRenderer {
         surface_stiffness: KS,
         surface_damping: damping,
         method,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     ProbeRenderer::new(params, 4096).unwrap()
 }
@@ -384,4 +385,43 @@ fn local_model_reproduces_the_probe_force_at_the_cursor_and_near_it() {
         .output(c, 0.005, 0.05);
     assert_eq!(none.model.kind, ModelKind::None);
     assert_eq!(none.force, DVec3::ZERO);
+}
+
+#[test]
+fn through_a_two_faced_thin_wall_the_spring_sum_jumps_the_vector_sum_passes_zero() {
+    // A 2 mm wall (faces +z at 0, −z at −2 mm): midway, both faces' samples are equally deep
+    // and their directions cancel. The seed's scalar magnitude keeps |F| while the direction
+    // flips (a ±F jump over one step); the vector sum passes through zero.
+    use sim_core::probe::fixtures::thin_wall;
+    let grid = SampleGrid::new(&thin_wall(1.5 * R, R / 25.0, 0.002), R / 3.0).unwrap();
+    let probe = sphere_at(DVec3::ZERO);
+    let (from, to) = (
+        DVec3::new(0.003, 0.002, 1.1 * R),
+        DVec3::new(0.003, 0.002, -1.1 * R - 0.002),
+    );
+    let steps = 460;
+    let step_mm = (to - from).length() * 1e3 / steps as f64;
+    for method in [DirectionMethod::SurfaceNormal, DirectionMethod::ProbeNormal] {
+        let mut r = renderer(method, 0.0);
+        let scalar = sweep(&mut r, &probe, &grid, from, to, steps, DVec3::Z);
+        let mut params = *r.params();
+        params.magnitude = MagnitudeMethod::VectorSum;
+        r.set_params(params).unwrap();
+        let vector = sweep(&mut r, &probe, &grid, from, to, steps, DVec3::Z);
+        eprintln!("thin wall {method:?}: spring sum {scalar:?}; vector sum {vector:?}");
+        assert!(
+            scalar.max_jump_n_per_mm >= 0.9 * scalar.peak_n / step_mm,
+            "{scalar:?}"
+        );
+        // Continuous: no 0.1 mm step changes it by more than 2 % of the spring sum's peak,
+        // where the spring sum jumps by 200 %.
+        assert!(
+            vector.max_jump_n_per_mm * step_mm <= 0.02 * scalar.peak_n,
+            "{vector:?}"
+        );
+        assert!(
+            vector.min_along_watch_n < 0.0,
+            "it still reverses, through zero"
+        );
+    }
 }

@@ -4,7 +4,7 @@ use glam::{DVec3, Vec3};
 use protocol::{ModelKind, ModelRenderer};
 use sim_core::bspline_surface::{BicubicPatch, MassSpringMesh, MeshParams, ProbeSculptor};
 use sim_core::haptic::{ToolReaction, dynamic_stiffness, hua_qin_force, series_stiffness};
-use sim_core::probe::{ContactParams, DirectionMethod, Probe, ProbePose};
+use sim_core::probe::{ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose};
 
 fn reaction(material: f64) -> ToolReaction {
     ToolReaction {
@@ -124,6 +124,7 @@ fn sculpting_reaction_pushes_back_and_hua_qin_agrees_in_direction() {
         surface_stiffness: 5.0e6,
         surface_damping: 0.0,
         method: DirectionMethod::SurfaceNormal,
+        magnitude: MagnitudeMethod::SpringSum,
     };
     let mut s = ProbeSculptor::new(
         BicubicPatch::flat(n, 0.05).unwrap(),

@@ -12,7 +12,9 @@
 use glam::{DQuat, DVec3};
 use protocol::ModelRenderer;
 use sim_core::bspline_surface::{BicubicPatch, MeshParams, ProbeSculptor, SurfaceError};
-use sim_core::probe::{ContactParams, DirectionMethod, Probe, ProbeError, ProbePose};
+use sim_core::probe::{
+    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbeError, ProbePose,
+};
 
 /// Why the scene could not be built or run.
 #[derive(Debug)]
@@ -94,6 +96,7 @@ impl Default for SceneConfig {
                 surface_stiffness: 5.0e6,
                 surface_damping: 1.5e4,
                 method: DirectionMethod::SurfaceNormal,
+                magnitude: MagnitudeMethod::SpringSum,
             },
             dt: 0.001,
             display_hz: 50.0,
