@@ -31,6 +31,7 @@ pub mod linalg;
 pub mod local_fit;
 pub mod mesh;
 pub mod normals;
+pub mod outliers;
 pub mod pointset;
 pub mod probe;
 pub mod projection;

@@ -7,12 +7,14 @@
 //! coordinate is finite.
 
 mod ply;
+mod ply_write;
 mod stl;
 mod text;
 
 use std::io::{Read, Write};
 
-pub use ply::{read_ply, write_mesh_ply, write_points_ply};
+pub use ply::read_ply;
+pub use ply_write::{write_mesh_ply, write_points_ply};
 pub use stl::{read_stl, write_stl};
 pub use text::{read_obj, read_off, read_xyz, write_obj};
 

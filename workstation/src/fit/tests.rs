@@ -1,0 +1,84 @@
+//! `workstation fit` end to end, through the library entry point (no process spawned).
+
+use clap::Parser;
+
+use super::*;
+
+#[derive(Debug, Parser)]
+struct Cli {
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+fn args(line: &[&str]) -> FitArgs {
+    Cli::parse_from(std::iter::once("fit").chain(line.iter().copied())).fit
+}
+
+#[test]
+fn generated_sphere_reports_the_checked_json_fields() {
+    let dir = std::env::temp_dir().join(format!("ws-fit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("sphere.stl");
+    let a = args(&[
+        "gen:sphere:2:3000",
+        "--json",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "32",
+    ]);
+    let report = run(&a).unwrap();
+    let json: serde_json::Value = serde_json::to_value(&report).unwrap();
+    for key in ["points", "construct_s", "rms_error", "max_error"] {
+        assert!(json.get(key).is_some_and(|v| !v.is_null()), "missing {key}");
+    }
+    assert_eq!(report.points, 3000);
+    assert_eq!(report.error_samples, 10_000);
+    assert_eq!(
+        report.reference_size,
+        Some(2.0),
+        "relative to R for a sphere"
+    );
+    assert!(report.rms_error.unwrap() < 1e-3);
+    // The mesh file reads back with the triangles reported.
+    let back = read_file(&mesh).unwrap().mesh.unwrap();
+    assert_eq!(Some(back.triangles.len()), report.mesh_triangles);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn file_input_with_faces_measures_against_its_own_mesh() {
+    let dir = std::env::temp_dir().join(format!("ws-fit-file-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A sphere mesh made by fitting, written as PLY, read back as input.
+    let mesh_path = dir.join("in.ply");
+    run(&args(&[
+        "gen:sphere:1:2000",
+        "--quiet",
+        "--mesh",
+        mesh_path.to_str().unwrap(),
+        "--resolution",
+        "24",
+    ]))
+    .unwrap();
+    let report = run(&args(&[
+        mesh_path.to_str().unwrap(),
+        "--quiet",
+        "--normals",
+        "estimate",
+    ]))
+    .unwrap();
+    assert_eq!(report.reference.as_deref(), Some("input mesh"));
+    assert!(report.max_error.unwrap() < 0.05, "{report:?}");
+    let none = run(&args(&[
+        mesh_path.to_str().unwrap(),
+        "--quiet",
+        "--reference",
+        "none",
+    ]))
+    .unwrap();
+    assert!(none.reference.is_none() && none.rms_error.is_none());
+    assert!(run(&args(&["missing.ply"])).is_err());
+    assert!(run(&args(&["gen:sphere:1:100", "--reference", "mesh:nope.obj"])).is_err());
+    std::fs::remove_dir_all(&dir).ok();
+}
