@@ -6,7 +6,7 @@ use glam::DVec3;
 use plotters::prelude::*;
 use sim_core::bspline_surface::{BicubicPatch, MeshParams, ProbeSculptor};
 use sim_core::haptic::fixtures::{AnalyticField, force_errors};
-use sim_core::probe::fixtures::{edge, fig4_force, sheet};
+use sim_core::probe::fixtures::{edge, fig4_force, sheet, thin_wall};
 use sim_core::probe::{
     ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
@@ -61,8 +61,10 @@ fn line_chart(
         .y_label_area_size(65)
         .build_cartesian_2d(x.1..x.2, y.1..y.2)?;
     chart.configure_mesh().x_desc(x.0).y_desc(y.0).draw()?;
-    for (name, color, pts, dots) in series {
+    for (index, (name, color, pts, dots)) in series.iter().enumerate() {
         let c = *color;
+        // Earlier curves drawn wider so coinciding later ones do not hide them.
+        let width = 2 + 2 * (series.len() - 1 - index) as u32;
         if *dots {
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))?
@@ -70,7 +72,7 @@ fn line_chart(
                 .legend(move |(x, y)| Circle::new((x + 10, y), 3, c.filled()));
         } else {
             chart
-                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(width)))?
                 .label(*name)
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
@@ -119,32 +121,78 @@ fn plots() -> Res {
         ],
     )?;
 
-    // Continuity: through a sheet (F_z) and across an edge (force angle from +z).
+    // Continuity: through a sheet and a 2 mm wall (F_z), across an edge (force angle from +z),
+    // for each direction method with the seed's spring sum (solid colours) and the vector sum.
     let sheet_grid = SampleGrid::new(&sheet(1.5 * R, R / 25.0), R / 3.0)?;
+    let wall_grid = SampleGrid::new(&thin_wall(1.5 * R, R / 25.0, 0.002), R / 3.0)?;
     let edge_grid = SampleGrid::new(&edge(3.0 * R, R / 25.0), R / 3.0)?;
-    let mut through = Vec::new();
-    let mut across = Vec::new();
-    for (name, m, color) in [
-        ("surface normal", DirectionMethod::SurfaceNormal, BLUE),
-        ("probe normal", DirectionMethod::ProbeNormal, RED),
-    ] {
+    let (mut through, mut wall, mut across) = (Vec::new(), Vec::new(), Vec::new());
+    let combos = [
+        (
+            "surface normal",
+            DirectionMethod::SurfaceNormal,
+            MagnitudeMethod::SpringSum,
+            BLUE,
+        ),
+        (
+            "probe normal",
+            DirectionMethod::ProbeNormal,
+            MagnitudeMethod::SpringSum,
+            RED,
+        ),
+        (
+            "surface normal, vector sum",
+            DirectionMethod::SurfaceNormal,
+            MagnitudeMethod::VectorSum,
+            CYAN,
+        ),
+        (
+            "probe normal, vector sum",
+            DirectionMethod::ProbeNormal,
+            MagnitudeMethod::VectorSum,
+            MAGENTA,
+        ),
+    ];
+    for (name, m, magnitude, color) in combos {
         let mut rr = renderer(m);
-        let (mut a, mut b) = (Vec::new(), Vec::new());
+        rr.set_params(ContactParams {
+            magnitude,
+            ..*rr.params()
+        })?;
+        let (mut a, mut w, mut b) = (Vec::new(), Vec::new(), Vec::new());
+        let at =
+            |x: f64, y: f64, z: f64| Probe::sphere(R)?.posed(ProbePose::at(DVec3::new(x, y, z)));
         for k in 0..=440 {
             let z = 1.1 * R - 2.2 * R * k as f64 / 440.0;
-            let p = Probe::sphere(R)?.posed(ProbePose::at(DVec3::new(0.003, 0.002, z)))?;
-            a.push((z * 1e3, rr.query(&p, &sheet_grid, DVec3::ZERO).force.z));
+            a.push((
+                z * 1e3,
+                rr.query(&at(0.003, 0.002, z)?, &sheet_grid, DVec3::ZERO)
+                    .force
+                    .z,
+            ));
+            let zw = z - 0.001 * (k as f64 / 440.0) * 2.0;
+            w.push((
+                zw * 1e3,
+                rr.query(&at(0.003, 0.002, zw)?, &wall_grid, DVec3::ZERO)
+                    .force
+                    .z,
+            ));
         }
         for k in 0..=540 {
             let x = -1.5 * R + 2.7 * R * k as f64 / 540.0;
-            let p = Probe::sphere(R)?.posed(ProbePose::at(DVec3::new(x, 0.0, 0.9 * R)))?;
-            let f = rr.query(&p, &edge_grid, DVec3::ZERO).force;
+            let f = rr
+                .query(&at(x, 0.0, 0.9 * R)?, &edge_grid, DVec3::ZERO)
+                .force;
             if f.length() > 0.0 {
                 b.push((x * 1e3, f.x.atan2(f.z).to_degrees()));
             }
         }
         through.push((name, color, a, false));
-        across.push((name, color, b, false));
+        wall.push((name, color, w, false));
+        if magnitude == MagnitudeMethod::SpringSum {
+            // The direction does not depend on the magnitude method.
+            across.push((name, color, b, false));
+        }
     }
     let fmax = peak;
     line_chart(
@@ -153,6 +201,13 @@ fn plots() -> Res {
         ("probe centre height above the sheet (mm)", -22.0, 22.0),
         ("F_z (N)", -fmax, fmax),
         &through,
+    )?;
+    line_chart(
+        &out("haptics_thin_wall.png"),
+        "Probe centre passing through a 2 mm two-faced wall: normal force",
+        ("probe centre height above the front face (mm)", -24.0, 22.0),
+        ("F_z (N)", -2.0 * fmax, 2.0 * fmax),
+        &wall,
     )?;
     line_chart(
         &out("haptics_edge.png"),
