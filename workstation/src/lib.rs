@@ -8,4 +8,5 @@ pub mod bench_sim;
 pub mod fit;
 pub mod logging;
 pub mod scenes;
+pub mod sculpt;
 pub mod status;

@@ -26,6 +26,8 @@ enum Command {
     Fit(workstation::fit::FitArgs),
     /// Time one sculpting step per stage (tools, integrator, points, publish) with its field error.
     BenchSim(workstation::bench_sim::BenchSimArgs),
+    /// Run a scripted sculpting session headless; write PLY points and meshes to --out.
+    Sculpt(workstation::sculpt::SculptArgs),
     /// Time the haptic queries (field force, shaped probe, B-spline sculpt tick) with their force error.
     BenchForce(workstation::bench_force::BenchForceArgs),
 }
@@ -47,6 +49,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(args) => {
             let report = workstation::fit::run(&args)?;
             workstation::fit::print(&report, args.json)
+        }
+        Command::Sculpt(args) => {
+            let report = workstation::sculpt::run(&args)?;
+            workstation::sculpt::print(&report, args.json)
         }
         Command::BenchSim(args) => {
             let report = workstation::bench_sim::run(&args)?;

@@ -1,0 +1,273 @@
+//! `workstation sculpt SCRIPT.toml --out DIR`: run a scripted sculpting session headless
+//! (objects, region, rope strokes, painting, embossing, CSG, resampling) and write every object
+//! as PLY points (normals, colours) plus the meshed zero set, and `report.json`.
+//!
+//! The script format is in [`script`] and documented in `examples/sculpt/README.md`.
+
+mod ops;
+pub mod script;
+#[cfg(test)]
+mod tests;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use glam::DVec3;
+use serde::Serialize;
+use sim_core::dynamics::Integrator;
+use sim_core::io::{self, Format};
+use sim_core::mesh::extract_zero_set;
+use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
+use sim_core::sampling::Shape;
+use sim_core::scene::{RegionParams, Scene, SceneObject};
+use sim_core::{FitParams, NoProgress, PointSet};
+
+use script::{ObjectSpec, RegionSpec, Script};
+
+/// Parsed arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SculptArgs {
+    /// The script (TOML).
+    pub script: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What one operation did.
+#[derive(Debug, Clone, Serialize)]
+pub struct OpReport {
+    /// Index in the script.
+    pub index: usize,
+    /// Operation kind.
+    pub kind: String,
+    /// Human-readable outcome.
+    pub summary: String,
+    /// Wall time (ms).
+    pub ms: f64,
+}
+
+/// One written object.
+#[derive(Debug, Clone, Serialize)]
+pub struct ObjectReport {
+    /// Name.
+    pub name: String,
+    /// Points written.
+    pub points: usize,
+    /// Triangles of the meshed zero set.
+    pub triangles: usize,
+    /// Point file.
+    pub ply: PathBuf,
+    /// Mesh file.
+    pub mesh: PathBuf,
+}
+
+/// The session's report.
+#[derive(Debug, Clone, Serialize)]
+pub struct SculptReport {
+    /// Per operation.
+    pub ops: Vec<OpReport>,
+    /// Per object written.
+    pub objects: Vec<ObjectReport>,
+}
+
+/// Run a script file.
+pub fn run(args: &SculptArgs) -> anyhow::Result<SculptReport> {
+    let text = std::fs::read_to_string(&args.script)
+        .with_context(|| format!("reading {}", args.script.display()))?;
+    let script = Script::parse(&text).with_context(|| format!("in {}", args.script.display()))?;
+    let dir = args.script.parent().unwrap_or(Path::new(".")).to_path_buf();
+    run_script(&script, &dir, &args.out)
+}
+
+/// Run a parsed script; relative paths resolve against `dir`.
+pub fn run_script(script: &Script, dir: &Path, out: &Path) -> anyhow::Result<SculptReport> {
+    let fit = FitParams::default();
+    let mut scene = Scene::new();
+    let mut names: Vec<String> = Vec::new();
+    for spec in &script.object {
+        let object =
+            load_object(spec, dir, &fit).with_context(|| format!("object `{}`", spec.name))?;
+        scene.add(object);
+        names.push(spec.name.clone());
+    }
+    let id =
+        |names: &[String], n: &str| names.iter().position(|x| x == n).context("unknown object");
+    let dt = script.region.as_ref().map_or(1e-3, |r| r.dt);
+    if let Some(r) = &script.region {
+        scene
+            .open_region(
+                id(&names, &r.object)?,
+                DVec3::from(r.min),
+                DVec3::from(r.max),
+                region_params(r),
+            )
+            .context("opening the region")?;
+    }
+    let mut ops = Vec::new();
+    for (index, op) in script.op.iter().enumerate() {
+        let t0 = Instant::now();
+        let (kind, summary) = ops::run_op(&mut scene, &mut names, op, dt, dir, &fit)
+            .with_context(|| format!("op[{index}]"))?;
+        ops.push(OpReport {
+            index,
+            kind: kind.into(),
+            summary,
+            ms: t0.elapsed().as_secs_f64() * 1e3,
+        });
+    }
+    if scene.region().is_some() {
+        scene.close_region()?;
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut objects = Vec::new();
+    for (o, name) in scene.objects().iter().zip(&names) {
+        objects.push(write_object(o, name, out, script.mesh_resolution)?);
+    }
+    let report = SculptReport { ops, objects };
+    std::fs::write(
+        out.join("report.json"),
+        serde_json::to_string_pretty(&report)?,
+    )?;
+    Ok(report)
+}
+
+fn region_params(r: &RegionSpec) -> RegionParams {
+    let integrator = match r.integrator.as_str() {
+        "forward_euler" => Integrator::forward_euler(r.accel_threshold),
+        "backward_euler" => Integrator::backward_euler(),
+        _ => Integrator::SymplecticEuler,
+    };
+    RegionParams {
+        node: r.node.unwrap_or_default(),
+        integrator,
+        ..RegionParams::new(r.spacing, r.band)
+    }
+}
+
+fn load_object(spec: &ObjectSpec, dir: &Path, fit: &FitParams) -> anyhow::Result<SceneObject> {
+    let mut points = match (&spec.file, &spec.generate) {
+        (Some(file), _) => {
+            let path = dir.join(file);
+            let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+            let format =
+                Format::from_extension(ext).with_context(|| format!("unknown format `{ext}`"))?;
+            let f = std::fs::File::open(&path)
+                .with_context(|| format!("opening {}", path.display()))?;
+            io::read(std::io::BufReader::new(f), format)?.points
+        }
+        (None, Some(g)) => {
+            let shape = match g.shape.as_str() {
+                "sphere" => Shape::Sphere { radius: g.size },
+                "torus" => Shape::Torus {
+                    major: g.size,
+                    minor: g.size2,
+                },
+                "plate" => Shape::Plate {
+                    half_size: g.size,
+                    thickness: g.size2,
+                },
+                _ => Shape::RoundedBox {
+                    half: DVec3::splat(g.size),
+                    radius: g.size2,
+                },
+            };
+            shape.sample(g.points, g.seed)
+        }
+        (None, None) => anyhow::bail!("no `file` or `generate`"),
+    };
+    let offset = DVec3::from(spec.offset);
+    points.positions.iter_mut().for_each(|p| *p += offset);
+    fit_object(spec.name.clone(), points, fit)
+}
+
+pub(crate) fn fit_object(
+    name: String,
+    points: PointSet,
+    fit: &FitParams,
+) -> anyhow::Result<SceneObject> {
+    let rec = reconstruct(
+        &points,
+        fit,
+        NormalPolicy::Keep,
+        &mut IgnoreStages,
+        &NoProgress,
+    )?;
+    let n = points.positions.len();
+    Ok(SceneObject {
+        name,
+        colors: points.colors.unwrap_or_else(|| vec![[200, 200, 200]; n]),
+        positions: points.positions,
+        normals: rec.normals,
+        field: rec.field,
+    })
+}
+
+pub(crate) fn point_set(o: &SceneObject) -> PointSet {
+    PointSet {
+        positions: o.positions.clone(),
+        normals: Some(o.normals.clone()),
+        colors: Some(o.colors.clone()),
+    }
+}
+
+fn write_object(
+    o: &SceneObject,
+    name: &str,
+    out: &Path,
+    resolution: usize,
+) -> anyhow::Result<ObjectReport> {
+    let ply = out.join(format!("{name}.ply"));
+    let mesh_path = out.join(format!("{name}_mesh.ply"));
+    let f = std::fs::File::create(&ply).with_context(|| format!("creating {}", ply.display()))?;
+    io::write_points_ply(std::io::BufWriter::new(f), &point_set(o), false)?;
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in &o.positions {
+        (lo, hi) = (lo.min(*p), hi.max(*p));
+    }
+    let pad = (hi - lo).max_element() * 0.05 + 1e-6;
+    let mesh = extract_zero_set(
+        &o.field,
+        (lo - DVec3::splat(pad), hi + DVec3::splat(pad)),
+        resolution,
+    );
+    let f = std::fs::File::create(&mesh_path)
+        .with_context(|| format!("creating {}", mesh_path.display()))?;
+    io::write_mesh_ply(std::io::BufWriter::new(f), &mesh)?;
+    Ok(ObjectReport {
+        name: name.into(),
+        points: o.positions.len(),
+        triangles: mesh.triangles.len(),
+        ply,
+        mesh: mesh_path,
+    })
+}
+
+/// Print the report.
+pub fn print(report: &SculptReport, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(report)?);
+        return Ok(());
+    }
+    for op in &report.ops {
+        println!(
+            "op[{}] {:<11} {:>9.1} ms  {}",
+            op.index, op.kind, op.ms, op.summary
+        );
+    }
+    for o in &report.objects {
+        println!(
+            "{}: {} points → {}, {} triangles → {}",
+            o.name,
+            o.points,
+            o.ply.display(),
+            o.triangles,
+            o.mesh.display()
+        );
+    }
+    Ok(())
+}

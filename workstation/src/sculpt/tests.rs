@@ -1,0 +1,111 @@
+//! Script parsing (every example, and bad scripts naming their field) and a small end-to-end run.
+
+use super::run_script;
+use super::script::Script;
+
+const EXAMPLES: [(&str, &str); 5] = [
+    ("bump", include_str!("../../../examples/sculpt/bump.toml")),
+    ("drag", include_str!("../../../examples/sculpt/drag.toml")),
+    ("carve", include_str!("../../../examples/sculpt/carve.toml")),
+    (
+        "emboss",
+        include_str!("../../../examples/sculpt/emboss.toml"),
+    ),
+    ("shell", include_str!("../../../examples/sculpt/shell.toml")),
+];
+
+#[test]
+fn every_example_parses() {
+    for (name, text) in EXAMPLES {
+        if let Err(e) = Script::parse(text) {
+            panic!("{name}: {e}");
+        }
+    }
+}
+
+const BASE: &str = r#"
+[[object]]
+name = "ball"
+generate = { shape = "sphere", size = 0.05, points = 800, seed = 1 }
+
+[region]
+object = "ball"
+min = [-0.03, -0.03, 0.02]
+max = [0.03, 0.03, 0.07]
+spacing = 0.004
+band = 0.01
+"#;
+
+fn error_of(extra: &str) -> String {
+    match Script::parse(&format!("{BASE}{extra}")) {
+        Ok(_) => panic!("accepted:\n{extra}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_scripts_name_the_field_and_reason() {
+    let cases = [
+        // (script tail, substrings the message must contain)
+        (
+            "[[op]]\nkind = \"rope\"\npath = [[0.0, 0.0, 0.05]]\nradius = -1.0\nstrength = 1.0\nprofile = \"gaussian\"\nsteps = 1\n",
+            vec!["op[0].radius", "positive"],
+        ),
+        (
+            "[[op]]\nkind = \"rope\"\npath = [[0.0, 0.0, 0.05]]\nradius = 0.01\nstrength = 1.0\nprofile = \"table\"\nsteps = 1\n",
+            vec!["op[0].profile", "table"],
+        ),
+        (
+            "[[op]]\nkind = \"rope\"\npath = []\nradius = 0.01\nstrength = 1.0\nprofile = \"gaussian\"\nsteps = 1\n",
+            vec!["op[0].path", "at least one"],
+        ),
+        (
+            "[[op]]\nkind = \"paint\"\nobject = \"nope\"\ncenter = [0.0, 0.0, 0.0]\ncolor = [1, 2, 3]\nradius = 0.01\n",
+            vec!["op[0].object", "nope"],
+        ),
+        (
+            "[[op]]\nkind = \"rope\"\npath = [[0.0, 0.0, 0.05]]\nstrength = 1.0\nprofile = \"gaussian\"\nsteps = 1\n",
+            vec!["radius", "line"],
+        ),
+        (
+            "[[op]]\nkind = \"relax\"\nsteps = 1\ncolour = 3\n",
+            vec!["colour", "line"],
+        ),
+        ("[[op]]\nkind = \"twist\"\n", vec!["twist", "line"]),
+        (
+            "[[op]]\nkind = \"csg\"\nop = \"union\"\na = \"ball\"\nb = \"ball\"\nresult = \"ball\"\n",
+            vec!["op[0].result", "already exists"],
+        ),
+    ];
+    for (tail, needles) in cases {
+        let msg = error_of(tail);
+        for n in needles {
+            assert!(msg.contains(n), "`{msg}` lacks `{n}` for:\n{tail}");
+        }
+    }
+    let bad_region = BASE.replace("max = [0.03, 0.03, 0.07]", "max = [0.03, -0.05, 0.07]");
+    let msg = Script::parse(&bad_region).unwrap_err().to_string();
+    assert!(msg.contains("region.max"), "{msg}");
+    let bad_node =
+        format!("{BASE}node = {{ mass = 0.0, damping = 0.1, stiffness = 1.0, anchor = 1.0 }}\n");
+    let msg = Script::parse(&bad_node).unwrap_err().to_string();
+    assert!(msg.contains("region.node") && msg.contains("mass"), "{msg}");
+}
+
+#[test]
+fn a_small_session_writes_points_and_meshes() {
+    let script = Script::parse(&format!(
+        "mesh_resolution = 24\n{BASE}[[op]]\nkind = \"rope\"\npath = [[0.0, 0.0, 0.05]]\nradius = 0.015\n\
+         strength = 0.3\nprofile = \"gaussian\"\nsteps = 30\n[[op]]\nkind = \"end_stroke\"\n"
+    ))
+    .unwrap();
+    let out = std::env::temp_dir().join(format!("sculpt-test-{}", std::process::id()));
+    let report = run_script(&script, std::path::Path::new("."), &out).unwrap();
+    assert_eq!(report.ops.len(), 2);
+    assert_eq!(report.objects.len(), 1);
+    assert!(report.objects[0].triangles > 100);
+    for f in ["ball.ply", "ball_mesh.ply", "report.json"] {
+        assert!(out.join(f).metadata().unwrap().len() > 0, "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
