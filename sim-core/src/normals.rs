@@ -47,7 +47,7 @@ fn pca_normal(points: &[DVec3], nb: &[u32]) -> DVec3 {
 }
 
 /// Flip normals so neighbours agree, propagating along a minimum spanning tree of the
-/// (symmetrised) k-NN graph with edge cost `1 − |nᵢ·nⱼ|`. In each connected component the
+/// (symmetrised) graph of each point's [`ORIENT_NEIGHBOURS`] nearest neighbours with edge cost `1 − |nᵢ·nⱼ|`. In each connected component the
 /// point with the largest `z` is made to face `+z` (for a closed surface it lies on the hull,
 /// where `+z` is outward). Returns the number of normals flipped.
 pub fn orient_consistently(points: &[DVec3], knn: &KnnGraph, normals: &mut [DVec3]) -> usize {
@@ -55,7 +55,7 @@ pub fn orient_consistently(points: &[DVec3], knn: &KnnGraph, normals: &mut [DVec
     // Symmetric adjacency in CSR form.
     let mut degree = vec![0u32; n + 1];
     for i in 0..n {
-        for &j in &knn.neighbours(i)[1..] {
+        for &j in orientation_edges(knn, i) {
             degree[i + 1] += 1;
             degree[j as usize + 1] += 1;
         }
@@ -66,7 +66,7 @@ pub fn orient_consistently(points: &[DVec3], knn: &KnnGraph, normals: &mut [DVec
     let mut fill = degree.clone();
     let mut adj = vec![0u32; degree[n] as usize];
     for i in 0..n {
-        for &j in &knn.neighbours(i)[1..] {
+        for &j in orientation_edges(knn, i) {
             adj[fill[i] as usize] = j;
             fill[i] += 1;
             adj[fill[j as usize] as usize] = i as u32;
@@ -108,6 +108,16 @@ pub fn orient_consistently(points: &[DVec3], knn: &KnnGraph, normals: &mut [DVec
     }
     flips
 }
+
+/// Neighbours used as orientation edges: the nearest [`ORIENT_NEIGHBOURS`] (the MST needs a
+/// connected graph along the surface, not the whole k-NN; fewer edges keep Prim's heap small).
+fn orientation_edges(knn: &KnnGraph, i: usize) -> &[u32] {
+    let nb = knn.neighbours(i);
+    &nb[1..nb.len().min(ORIENT_NEIGHBOURS + 1)]
+}
+
+/// Out-edges per point in the orientation graph.
+pub const ORIENT_NEIGHBOURS: usize = 10;
 
 /// After [`orient_consistently`] on a copy of given normals, keep the global sign the majority of
 /// the given normals agree with: flips all of `oriented` if most disagree with `given`.
