@@ -150,17 +150,13 @@ impl Probe {
             return None;
         }
         // Roots `big/a` and `c/big` (opposite signs, no cancellation); the nearer one has the
-        // smaller magnitude: |big/a| < |c/big| ⇔ big² < a·|c|. One division; a tie takes the
-        // crossing along +n.
+        // smaller magnitude. Both divisions are independent (they pipeline) and the choice is a
+        // select, not a branch: with the centre on the sample's plane the comparison is decided
+        // by rounding, and a branch mispredicts on every other sample (measured: 2× slower).
+        // At an exact tie either crossing is as near; the first is taken.
         let big = -(b + disc.sqrt().copysign(b));
-        let (lhs, rhs) = (big * big, -a * c);
-        let t = if lhs < rhs {
-            big / a
-        } else if lhs > rhs {
-            c / big
-        } else {
-            (big / a).max(c / big)
-        };
+        let (r1, r2) = (big / a, c / big);
+        let t = if r1.abs() <= r2.abs() { r1 } else { r2 };
         Some((t, q))
     }
 
@@ -191,7 +187,7 @@ impl Probe {
     /// `n` is the sample's unit normal. `None` when `p` is on or outside the probe or an input is
     /// non-finite. The quadratic `|q + t e|² = 1` (`q`, `e` in the unit-sphere frame) has one
     /// negative and one positive root when `p` is inside; both are computed without
-    /// cancellation. A tie (centre on the line midpoint) picks the crossing along `+n`.
+    /// cancellation. At a tie (the sample midway along its chord) either crossing is as near.
     #[inline]
     pub fn ray_crossing(&self, p: DVec3, n: DVec3) -> Option<RayCrossing> {
         let (t, q) = self.nearer_root(p, n)?;

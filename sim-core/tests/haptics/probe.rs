@@ -39,7 +39,12 @@ fn ray_crossing_is_the_nearer_sphere_crossing_along_the_normal() {
             "{} vs {expect}",
             hit.depth
         );
-        assert_eq!(hit.exit_sign, if w - z <= w + z { 1.0 } else { -1.0 });
+        if z != 0.0 {
+            assert_eq!(hit.exit_sign, if w - z < w + z { 1.0 } else { -1.0 });
+        }
+        // On the exit side, `depth` along `exit_sign·n` reaches the surface.
+        let on = DVec3::new(x, y, z) + hit.exit_sign * hit.depth * DVec3::Z;
+        assert!(probe.value(on).abs() < 1e-12, "{on}");
     }
     assert!(
         probe
