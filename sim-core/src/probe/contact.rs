@@ -192,7 +192,8 @@ impl ProbeRenderer {
             sums.probe_dir -= w * probe.normal_from_local(q);
         }
         if self.contacts.len() < self.capacity {
-            let exit = if t >= 0.0 { s.normal } else { -s.normal };
+            // Branch-free: the sign is decided by rounding when the centre is on the plane.
+            let exit = s.normal * 1f64.copysign(t);
             self.contacts.push(Contact {
                 sample: index,
                 depth,
