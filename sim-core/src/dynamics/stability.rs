@@ -98,14 +98,20 @@ pub fn measure_limit(
 }
 
 /// Predicted limits for uniform node parameters from the Gershgorin bound on `ω_max` and the
-/// top mode's damping ratio `ζ = c/(2 m ω_max)`: forward Euler `Δt < 2ζ/ω = c/(m ω²)` (needs
-/// damping: undamped it is unconditionally unstable), symplectic Euler
-/// `Δt < min((2/ω)(√(1+ζ²) − ζ), 1/(ζ ω))`; backward Euler has no limit.
+/// top mode's damping ratio `ζ = c/(2 m ω_max)` (the top mode is the binding one in every
+/// regime). Forward Euler: `Δt < 2ζ/ω = c/(m ω²)` when underdamped (so it needs damping:
+/// undamped it is unconditionally unstable), `Δt < 2/(ω(ζ + √(ζ²−1)))` when overdamped (the fast
+/// real eigenvalue). Symplectic Euler: `Δt < min((2/ω)(√(1+ζ²) − ζ), 1/(ζ ω))`. Backward Euler
+/// has no limit. Returns `(forward, symplectic)` in seconds.
 pub fn predicted_limits(model: &DynamicGrid) -> (f64, f64) {
     let w = model.omega_max_bound();
     let p = model.node_params(0);
     let zeta = p.damping / (2.0 * p.mass * w);
-    let fe = 2.0 * zeta / w;
+    let fe = if zeta < 1.0 {
+        2.0 * zeta / w
+    } else {
+        2.0 / (w * (zeta + (zeta * zeta - 1.0).sqrt()))
+    };
     let se = ((2.0 / w) * ((1.0 + zeta * zeta).sqrt() - zeta)).min(if zeta > 0.0 {
         1.0 / (zeta * w)
     } else {

@@ -292,3 +292,28 @@ fn snapshots_show_rest_plus_displacement_and_are_recycled() {
         "a held snapshot is not overwritten"
     );
 }
+
+#[test]
+fn overdamped_light_nodes_have_the_fast_pole_limit() {
+    // m = 1e-6 kg with the default damping: ζ ≈ 17 at the top mode, so forward Euler's limit is
+    // set by the fast real pole, ≈ 2m/c = 4 µs, not by 2ζ/ω (which would say 2.3 ms).
+    let p = NodeParams {
+        mass: 1e-6,
+        ..NodeParams::default()
+    };
+    let m = small_model(8, p);
+    let (fe_pred, _) = predicted_limits(&m);
+    assert!(
+        (fe_pred - 2.0 * 1e-6 / 0.5).abs() < 0.05 * 4e-6,
+        "{fe_pred}"
+    );
+    let search = LimitSearch {
+        steps: 1500,
+        ..LimitSearch::default()
+    };
+    let fe = measure_limit(&m, Integrator::forward_euler(1e9), 1e-8, 1e-2, &search);
+    assert!(
+        fe >= 0.98 * fe_pred && fe <= 1.25 * fe_pred,
+        "FE {fe} vs {fe_pred}"
+    );
+}
