@@ -34,7 +34,6 @@ fn main() {
         size: arg(7, 3.0) as usize,
         support: arg(8, 1.0),
         normal_agreement: arg(9, -0.5),
-        sheet_width: arg(10, 0.0),
         ..FitParams::default()
     };
     let pts = shape.sample(n, 1);

@@ -185,13 +185,40 @@ impl GlobalField {
     }
 
     /// `f(x)` and `∇f(x)`. Allocation-free; finite for finite `x`.
+    ///
+    /// Where the supports covering `x` come from opposite sheets (normals with a dot product
+    /// below `normal_agreement`: a thin shell, a thin gap, a sharp sparse tip), only the fields
+    /// facing like the nearest point's normal are blended, so the sheets cannot average each
+    /// other away. The field then jumps where the nearest point changes sheet: inside a thin
+    /// solid (both sides negative) or inside a thin gap (both positive), never across f = 0.
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
+        let d = &*self.inner;
+        let mut acc = self.blend(x, None);
+        if acc.mixed {
+            let (item, _) = d.nearest.nearest(x);
+            let facing = d.normals[d.nearest_ids[item] as usize];
+            acc = self.blend(x, Some(facing));
+        }
+        if acc.sw > 1e-12 {
+            let f = acc.swf / acc.sw;
+            let g = (acc.gswf - acc.gsw * f) / acc.sw;
+            if f.is_finite() && g.is_finite() {
+                return (f, g);
+            }
+        }
+        self.nearest_signed_distance(x)
+    }
+
+    /// Accumulate the blend at `x` over the supports containing it, optionally only over fields
+    /// whose normal agrees with `facing`; reports whether the fields' normals disagree.
+    #[inline]
+    fn blend(&self, x: DVec3, facing: Option<DVec3>) -> Blend {
         let d = &*self.inner;
         let size = d.params.size;
         let c = size * size * size;
-        let sheet = d.params.sheet_width / (1.0 + d.params.offset);
-        let (mut sw, mut swf) = (0.0, 0.0);
-        let (mut gsw, mut gswf) = (DVec3::ZERO, DVec3::ZERO);
+        let agreement = d.params.normal_agreement;
+        let mut acc = Blend::default();
+        let mut reference: Option<DVec3> = facing;
         d.grid.for_each_candidate(x, |i| {
             let r = d.support[i];
             let fr = &d.frames[i];
@@ -199,6 +226,13 @@ impl GlobalField {
             let dist2 = rel.length_squared();
             if dist2 >= r * r {
                 return;
+            }
+            let normal = fr.axes[2];
+            match (facing, reference) {
+                (Some(f), _) if normal.dot(f) < agreement => return,
+                (None, Some(n)) if normal.dot(n) < agreement => acc.mixed = true,
+                (None, None) => reference = Some(normal),
+                _ => {}
             }
             let dist = dist2.sqrt();
             let (phi, dphi) = weight(dist / r);
@@ -210,34 +244,13 @@ impl GlobalField {
             let [u, v, w] = fr.to_local(x);
             let (s, gq) = eval3(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
             let inv_edge = 0.5 / fr.half;
-            let gs = (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + fr.axes[2] * gq[2]) * inv_edge;
-            // Sheet selectivity: fields whose own zero set passes close to x dominate, so the
-            // two sheets of a thin shell do not average each other away.
-            let (w, gw) = if sheet > 0.0 {
-                let tau = sheet * fr.half;
-                let q = s / tau;
-                let base = 1.0 / (1.0 + q * q);
-                let gamma = (base * base) * (base * base);
-                (
-                    phi * gamma,
-                    gphi * gamma - gs * (8.0 * phi * q * gamma * base / tau),
-                )
-            } else {
-                (phi, gphi)
-            };
-            sw += w;
-            swf += w * s;
-            gsw += gw;
-            gswf += gw * s + gs * w;
+            let gs = (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + normal * gq[2]) * inv_edge;
+            acc.sw += phi;
+            acc.swf += phi * s;
+            acc.gsw += gphi;
+            acc.gswf += gphi * s + gs * phi;
         });
-        if sw > 1e-12 {
-            let f = swf / sw;
-            let g = (gswf - gsw * f) / sw;
-            if f.is_finite() && g.is_finite() {
-                return (f, g);
-            }
-        }
-        self.nearest_signed_distance(x)
+        acc
     }
 
     /// Signed distance to the nearest inlier point, signed by its normal (the fallback where
@@ -341,6 +354,17 @@ impl GlobalField {
     }
 }
 
+/// Running sums of the blend at one point.
+#[derive(Debug, Clone, Copy, Default)]
+struct Blend {
+    sw: f64,
+    swf: f64,
+    gsw: DVec3,
+    gswf: DVec3,
+    /// Some covering fields face opposite ways.
+    mixed: bool,
+}
+
 impl Clone for FieldData {
     fn clone(&self) -> Self {
         let inlier_points: Vec<DVec3> = self
@@ -403,9 +427,8 @@ fn validate(
         p.support > 0.0 && p.support <= 1.0,
         p.normal_agreement.is_finite(),
         p.outlier_ratio > 1.0,
-        p.sheet_width >= 0.0 && p.sheet_width.is_finite(),
     ];
-    const WHAT: [&str; 8] = [
+    const WHAT: [&str; 7] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -413,7 +436,6 @@ fn validate(
         "support must be in (0, 1]",
         "normal_agreement must be finite",
         "outlier_ratio must exceed 1",
-        "sheet_width must be finite and non-negative",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),

@@ -37,11 +37,6 @@ pub struct FitParams {
     /// multiple of the global median) is an outlier: it gets no local field and is nobody's
     /// neighbour. So is a point whose normal opposes three quarters of its neighbours'.
     pub outlier_ratio: f64,
-    /// Sheet selectivity of the blend, as a fraction of `r`: each weight `φᵢ` is multiplied by
-    /// `(1 + (sᵢ(x)/τᵢ)²)⁻⁴`, `τᵢ = sheet_width·rᵢ`, so near a thin shell the fields of the
-    /// nearer sheet dominate. `0` (default) disables it: the papers' plain blend, which is
-    /// smoother on noisy data; `0.02` helps two sheets closer than the spacing.
-    pub sheet_width: f64,
 }
 
 impl Default for FitParams {
@@ -55,7 +50,6 @@ impl Default for FitParams {
             support: 1.0,
             normal_agreement: -0.5,
             outlier_ratio: 4.0,
-            sheet_width: 0.0,
         }
     }
 }

@@ -61,9 +61,6 @@ pub struct FitArgs {
     /// Tikhonov weight toward the planar field (relative).
     #[arg(long, default_value_t = FitParams::default().regularization)]
     pub regularization: f64,
-    /// Sheet-selective blending width (0 = the papers' plain blend; ~0.02 for thin shells).
-    #[arg(long, default_value_t = FitParams::default().sheet_width)]
-    pub sheet_width: f64,
     /// What to do with given normals: keep, reorient (fix flipped ones) or estimate (ignore).
     #[arg(long, value_enum, default_value_t = NormalsArg::Keep)]
     pub normals: NormalsArg,
@@ -240,7 +237,6 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         offset: args.offset,
         weight_width: args.weight_width,
         regularization: args.regularization,
-        sheet_width: args.sheet_width,
         ..FitParams::default()
     };
     let policy = match args.normals {

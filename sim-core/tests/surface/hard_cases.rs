@@ -323,19 +323,32 @@ fn thin_shell_two_sheets_closer_than_the_spacing() {
         thickness: 0.004,
     };
     let pts = plate.sample(6000, 17);
-    // The plain blend averages the sheets away (measured RMS 7.5e-3 > thickness); the
-    // sheet-selective blend keeps them.
-    let params = FitParams {
-        sheet_width: 0.02,
-        ..FitParams::default()
-    };
-    let rec = fit(&pts, &params, NormalPolicy::Keep);
-    // Where the sheets' supports overlap the blend mixes opposite fields: near the points the
-    // gradient stays ≤ 10 (measured 5.0) but not near 1.
-    assert_bounded(&rec.field, &pts.positions, 0.5, 10.0);
-    // Bound (a weak one, and a known limitation): the sheets survive as a zero set, RMS within
-    // the thickness and max within 8 thicknesses of the plate; the inside stays inside.
+    // The papers' plain blend averages the sheets away (measured RMS 7.5e-3 > thickness). Where
+    // covering fields face opposite ways the field blends only those facing like the nearest
+    // point, which keeps both sheets.
+    let rec = fit(&pts, &FitParams::default(), NormalPolicy::Keep);
+    // Near the points ‖∇f‖ ≤ 3 (measured 1.24; ~7 elsewhere): the field jumps, inside the
+    // plate, where the nearest point changes sheet.
+    assert_bounded(&rec.field, &pts.positions, 0.5, 3.0);
+    // Bound: RMS ≤ 0.3 t over the whole plate (measured 0.15 t) and max ≤ 6 t (measured 4.6 t,
+    // at the rim, whose radius t/2 is a tenth of the spacing: a sharp edge to the fit).
+    let t = 0.004;
     let e = error(&rec.field, &plate, 10_000);
-    assert!(e.rms <= 0.004 && e.max <= 8.0 * 0.004, "{e:?}");
+    assert!(e.rms <= 0.3 * t && e.max <= 6.0 * t, "{e:?}");
+    // Away from the rim the sheets are exact to a few thousandths of the thickness.
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for _ in 0..500 {
+        let (x, y) = (rng.random_range(-0.4..0.4), rng.random_range(-0.4..0.4));
+        let side: f64 = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        let p = rec.field.project_to_zero_set(DVec3::new(
+            x,
+            y,
+            side * rng.random_range(0.6 * t..3.0 * t),
+        ));
+        assert!(
+            p.converged && (p.point.z.abs() - t / 2.0).abs() <= 0.01 * t,
+            "{p:?}"
+        );
+    }
     assert!(rec.field.value(DVec3::ZERO) < 0.0 && rec.field.value(DVec3::new(0.1, 0.2, 0.0)) < 0.0);
 }
