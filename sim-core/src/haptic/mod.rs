@@ -19,7 +19,9 @@ pub mod vcp;
 
 pub use field_force::{FieldContact, FieldContactParams, FieldForce, FieldQuery};
 pub use local_model::{ContactModel, HapticOutput};
-pub use reaction::{ToolReaction, dynamic_stiffness, hua_qin_force, series_stiffness};
+pub use reaction::{
+    ToolReaction, dynamic_stiffness, hua_qin_force, series_stiffness, value_forces_in_space,
+};
 pub use vcp::RootStatus;
 
 /// Why a haptic renderer could not be made.

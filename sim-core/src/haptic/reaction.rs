@@ -9,6 +9,9 @@
 //! (`applied = 0`) the model is dropped — release. A heavier material resists more over the
 //! model's horizon τ: [`dynamic_stiffness`] adds the inertial term `m/τ²`.
 //!
+//! On the voxel grid the tool pushes on node *values*; [`value_forces_in_space`] turns those
+//! scalar forces into the spatial force the material receives.
+//!
 //! **Hua–Qin mapping** ([`hua_qin_force`]): `f = −∫ s dC`, discretely `f = Σ_j s_j F_j` with
 //! `s_j ∈ [0, 1]` the tool's distribution profile at node `j` and `F_j` the material's internal
 //! (restoring) force there: the virtual work of a tool that drags node `j` by `s_j` of its own
@@ -101,6 +104,24 @@ pub fn hua_qin_force(nodes: impl IntoIterator<Item = (f64, DVec3)>) -> DVec3 {
     for (s, internal) in nodes {
         if s.is_finite() && internal.is_finite() {
             f += s.clamp(0.0, 1.0) * internal;
+        }
+    }
+    f
+}
+
+/// The spatial force equivalent of scalar forces on grid node values, N: what a tool that
+/// pushes on values (the rope of seed 000) applies to the material in space.
+///
+/// Virtual work: moving the surface by `δx` changes a node's value by `−∇f·δx`, so a value force
+/// `f_j` does the work of the spatial force `−f_j ∇f_j` (for a distance field `|∇f| = 1`, so a
+/// rope pulling outward, `f_j < 0`, pulls along `+n`). Feed the sum to
+/// [`ToolReaction::applied`]; non-finite pairs are skipped.
+pub fn value_forces_in_space(nodes: impl IntoIterator<Item = (f64, DVec3)>) -> DVec3 {
+    let mut f = DVec3::ZERO;
+    for (value_force, gradient) in nodes {
+        let term = -value_force * gradient;
+        if term.is_finite() {
+            f += term;
         }
     }
     f

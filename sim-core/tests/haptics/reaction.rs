@@ -3,7 +3,9 @@
 use glam::{DVec3, Vec3};
 use protocol::{ModelKind, ModelRenderer};
 use sim_core::bspline_surface::{BicubicPatch, MassSpringMesh, MeshParams, ProbeSculptor};
-use sim_core::haptic::{ToolReaction, dynamic_stiffness, hua_qin_force, series_stiffness};
+use sim_core::haptic::{
+    ToolReaction, dynamic_stiffness, hua_qin_force, series_stiffness, value_forces_in_space,
+};
 use sim_core::probe::{ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose};
 
 fn reaction(material: f64) -> ToolReaction {
@@ -163,4 +165,26 @@ fn sculpting_reaction_pushes_back_and_hua_qin_agrees_in_direction() {
     // Button up: no more deformation force; what remains is rigid touch, no reaction.
     let up = s.tick(&probe, DVec3::ZERO, false, 0.001).unwrap();
     assert_eq!(up.applied, DVec3::ZERO);
+}
+
+#[test]
+fn a_rope_pulling_values_outward_is_felt_pulling_back_inward() {
+    // Seed 000's rope on a plane's distance field (∇f = +z): value forces −strength·w_j lower
+    // the values near the pick, raising the surface. In space that is +z·strength·Σw; the user
+    // feels the reverse through an anchor model.
+    let (strength, weights) = (0.2, [1.0, 0.6, 0.6, 0.1]);
+    let applied = value_forces_in_space(weights.iter().map(|w| (-strength * w, DVec3::Z)));
+    assert!(
+        (applied - DVec3::new(0.0, 0.0, 0.2 * 2.3)).length() < 1e-12,
+        "{applied}"
+    );
+    let felt = ToolReaction {
+        applied,
+        tool_stiffness: 200.0,
+        material_stiffness: 80.0,
+        damping: 0.0,
+    }
+    .output(DVec3::new(0.0, 0.0, 0.01), 0.005, 0.02);
+    assert!(felt.force.z < 0.0 && felt.force.x == 0.0, "{felt:?}");
+    assert!(value_forces_in_space([(f64::NAN, DVec3::Z)]) == DVec3::ZERO);
 }
