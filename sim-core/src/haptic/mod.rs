@@ -10,6 +10,33 @@
 //!   the Hua–Qin field force-mapping as an alternative.
 //! - [`local_model`]: the model in scene units and its one conversion to the wire.
 //! - The shaped probe lives in [`crate::probe`]; it returns the same [`HapticOutput`].
+//!
+//! One tick of a force-mapping thread (the grid is the simulation's latest `Arc` snapshot):
+//!
+//! ```
+//! use std::sync::Arc;
+//! use glam::DVec3;
+//! use sim_core::grid::{GridSpec, ScalarGrid};
+//! use sim_core::haptic::{FieldContactParams, FieldForce};
+//!
+//! let spec = GridSpec::covering(DVec3::splat(-0.03), DVec3::splat(0.03), 0.001);
+//! let snapshot = Arc::new(ScalarGrid::from_fn(spec, |p| p.length() - 0.02)); // a 2 cm ball
+//! let mut field_force = FieldForce::new(FieldContactParams {
+//!     stiffness: 500.0,      // N/m
+//!     damping: 1.0,          // N·s/m
+//!     friction: 0.3,
+//!     max_search: 0.02,      // m
+//!     approach_margin: 0.002, // m: send the surface plane before contact
+//!     validity_radius: 0.003, // m
+//!     lifetime_s: 0.02,
+//! })?;
+//! let (cursor, velocity) = (DVec3::new(0.0, 0.0, 0.019), DVec3::ZERO); // 1 mm inside
+//! let q = field_force.query(&snapshot, cursor, velocity);
+//! assert!((q.output.force.z - 0.5).abs() < 0.01); // k × 1 mm, outward
+//! let command = q.output.to_command(42, 0); // answers cursor sample 42; send it
+//! assert_eq!(command.model.kind, protocol::ModelKind::Plane);
+//! # Ok::<(), sim_core::haptic::HapticError>(())
+//! ```
 
 pub mod field_force;
 pub mod fixtures;

@@ -19,6 +19,28 @@
 //! the probe* (what the user feels). Sample areas make the force independent of sampling density:
 //! a plane sampled at spacing `h` with area `h²` per sample feels like the continuous integral.
 //!
+//! ```
+//! use glam::{DQuat, DVec3};
+//! use sim_core::probe::fixtures::sheet;
+//! use sim_core::probe::*;
+//!
+//! let samples = sheet(0.05, 0.001); // a 10 cm plate, 1 mm samples, normal +z
+//! let grid = SampleGrid::new(&samples, 0.004)?; // built once (re-bin with `update`)
+//! let params = ContactParams {
+//!     surface_stiffness: 2e6, // N/m per m²
+//!     surface_damping: 50.0,  // N·s/m per m²
+//!     method: DirectionMethod::SurfaceNormal,
+//!     magnitude: MagnitudeMethod::SpringSum,
+//! };
+//! let mut renderer = ProbeRenderer::new(params, 0)?; // 0: force only, no contact list
+//! let mut probe = Probe::ellipsoid(DVec3::new(0.015, 0.008, 0.008))?;
+//! probe.set_pose(ProbePose { position: DVec3::new(0.0, 0.0, 0.006), orientation: DQuat::IDENTITY })?;
+//! let f = renderer.query(&probe, &grid, DVec3::ZERO); // every haptic tick
+//! assert!(f.force.z > 0.0 && f.contact_count > 0);
+//! let command = f.output(probe.center(), 0.003, 0.02).to_command(7, 0); // to the server
+//! # Ok::<(), ProbeError>(())
+//! ```
+//!
 //! Contract: pure and deterministic (summation order is the grid's storage order); no
 //! allocation per query — contacts are kept in scratch sized at construction; non-finite poses,
 //! samples or velocities never produce non-finite forces (they give zero force or are skipped).
