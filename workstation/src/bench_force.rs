@@ -27,10 +27,13 @@ use sim_core::probe::{
 use crate::scenes::bspline_probe::{BsplineProbeScene, SceneConfig};
 
 mod continuity;
+mod fitted;
 mod timing;
 
 pub use continuity::ContinuityRow;
 use continuity::continuity;
+pub use fitted::FittedErrors;
+use fitted::fitted_errors;
 
 pub use timing::Timing;
 use timing::time_runs;
@@ -53,6 +56,9 @@ pub struct BenchForceArgs {
     /// Runs (spread of the p99 across runs).
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
+    /// Points sampled on the sphere for the fitted-field check (0 skips it).
+    #[arg(long, default_value_t = 10_000)]
+    pub fit_points: usize,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -71,6 +77,9 @@ pub struct BenchForceReport {
     pub probe_contacts: f64,
     /// Field query timing detail, µs.
     pub field_query_us: Timing,
+    /// The whole chain (points → fitted field → grid → force) on the same sphere; absent with
+    /// `--fit-points 0`.
+    pub fitted: Option<FittedErrors>,
     /// Field grid spacing, m.
     pub field_spacing_m: f64,
     /// Largest field-force error as a position, m, at depths 0–0.3 R.
@@ -154,6 +163,10 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
         .into_iter()
         .map(|(x, _, n)| (x, n.any_orthonormal_vector() * 0.05))
         .collect();
+    let fitted = match args.fit_points {
+        0 => None,
+        n => Some(fitted_errors(n, &sphere, h, &params)?),
+    };
     let mut ff = FieldForce::new(params)?;
     let mut sink = DVec3::ZERO;
     let field_t = time_runs(args.repeats, points.len(), |i| {
@@ -224,6 +237,7 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
         probe_query_us_p99: probe_t.p99,
         probe_contacts: contacts as f64 / timed_probe_queries as f64,
         field_query_us: field_t,
+        fitted,
         field_spacing_m: h,
         field_position_error_m: shallow.position_m,
         field_direction_error_rad: errors.direction_rad,
@@ -300,6 +314,16 @@ pub fn print(r: &BenchForceReport, json: bool) -> anyhow::Result<()> {
         r.field_convergence_orders[0],
         r.field_convergence_orders[1]
     );
+    if let Some(f) = &r.fitted {
+        println!(
+            "  fitted sphere ({} points → field → grid): depth 0.1–0.3 R rel error {:.3e}, direction {:.2e} rad; depth < 0.05 R position {:.2} µm, direction {:.2e} rad",
+            f.points,
+            f.deep_rel_error,
+            f.deep_direction_rad,
+            f.shallow_position_m * 1e6,
+            f.shallow_direction_rad
+        );
+    }
     t("probe query", &r.probe_query_us);
     t("  + contact list", &r.probe_query_recorded_us);
     println!(
