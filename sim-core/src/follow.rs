@@ -18,11 +18,14 @@
 //! No allocation per call once the [`Follower`]'s scratch has grown to the region's point count.
 
 use glam::DVec3;
-use rayon::prelude::*;
 
 use crate::bspline::eval3;
 use crate::dynamics::DynamicGrid;
 use crate::field::GlobalField;
+
+mod follower;
+
+pub use follower::Follower;
 
 /// Settings of [`Follower::follow`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,19 +62,30 @@ pub struct FollowReport {
     pub max_move: f64,
     /// Exact evaluations of `f_base` (Taylor-model refreshes).
     pub exact_evaluations: usize,
-    /// Points left where they were because no zero set was within one grid spacing (the
-    /// surface vanished under them, e.g. a thin shell pushed through itself).
+    /// Points currently stranded: left where they were because no zero set was within one grid
+    /// spacing (the surface vanished under them, e.g. a thin shell pushed through itself). A
+    /// point stays stranded until an update succeeds.
     pub stranded: usize,
 }
 
 /// Per-point cache: Taylor model of `f_base` and the displacement last followed.
 #[derive(Debug, Clone, Copy, Default)]
-struct PointCache {
+pub(crate) struct PointCache {
     valid: bool,
     x: DVec3,
     f: f64,
     g: DVec3,
     seen: f64,
+}
+
+/// A computed point update, applied by the [`Follower`] unless the point is stranded.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PointUpdate {
+    pub(crate) position: DVec3,
+    pub(crate) normal: DVec3,
+    pub(crate) residual: f64,
+    pub(crate) exact: bool,
+    pub(crate) cache: PointCache,
 }
 
 /// Trilinear displacement, its gradient and the trilinear velocity at `x`; `None` outside the
@@ -124,117 +138,20 @@ pub fn sculpted_value(base: &GlobalField, model: &DynamicGrid, x: DVec3) -> (f64
     }
 }
 
-/// Moves points with the field; owns the per-stroke moved list and per-step scratch.
-#[derive(Debug, Clone, Default)]
-pub struct Follower {
-    /// Settings.
-    pub options: FollowOptions,
-    moved: Vec<u32>,
-    is_moved: Vec<bool>,
-    results: Vec<Option<(DVec3, DVec3, f64, bool)>>,
-    cache: Vec<PointCache>,
-}
-
-impl Follower {
-    /// A follower for an object of `points` points.
-    pub fn new(points: usize, options: FollowOptions) -> Self {
-        Self {
-            options,
-            moved: Vec::new(),
-            is_moved: vec![false; points],
-            results: Vec::new(),
-            cache: Vec::new(),
-        }
-    }
-
-    /// Points moved since the last [`Follower::clear_moved`] (each once).
-    pub fn moved(&self) -> &[u32] {
-        &self.moved
-    }
-
-    /// Make room for points appended to the object (they start unmoved).
-    pub fn grow(&mut self, points: usize) {
-        if points > self.is_moved.len() {
-            self.is_moved.resize(points, false);
-        }
-    }
-
-    /// Start a new stroke's moved list; forget the Taylor models (the base field changed).
-    pub fn clear_moved(&mut self) {
-        self.cache.clear();
-        for &i in &self.moved {
-            self.is_moved[i as usize] = false;
-        }
-        self.moved.clear();
-    }
-
-    /// Move every candidate point in a moving cell by Eq. 9 over `dt`, re-project it onto
-    /// `F = 0`, update its normal, and remember it as moved. `candidates` lists the points worth
-    /// checking (those inside the region), so cost scales with the region. Points are processed
-    /// in parallel, each independently, so the result does not depend on the thread count.
-    pub fn follow(
-        &mut self,
-        base: &GlobalField,
-        model: &DynamicGrid,
-        candidates: &[u32],
-        points: &mut [DVec3],
-        normals: &mut [DVec3],
-        dt: f64,
-    ) -> FollowReport {
-        let opts = self.options;
-        self.results.resize(candidates.len(), None);
-        self.cache.resize(candidates.len(), PointCache::default());
-        {
-            let (pts, nrm) = (&*points, &*normals);
-            self.results
-                .par_iter_mut()
-                .zip(self.cache.par_iter_mut())
-                .zip(candidates.par_iter())
-                .with_min_len(64)
-                .for_each(|((out, cache), &i)| {
-                    let i = i as usize;
-                    *out = follow_point(base, model, cache, pts[i], nrm[i], dt, &opts);
-                });
-        }
-        let mut report = FollowReport::default();
-        for (r, &i) in self.results.iter().zip(candidates) {
-            let Some((x, n, residual, exact)) = *r else {
-                continue;
-            };
-            let i = i as usize;
-            report.visited += 1;
-            report.exact_evaluations += usize::from(exact);
-            if residual > model.spec().spacing {
-                report.stranded += 1;
-                continue;
-            }
-            report.max_residual = report.max_residual.max(residual);
-            report.max_move = report.max_move.max(x.distance(points[i]));
-            points[i] = x;
-            normals[i] = n;
-            if !self.is_moved[i] {
-                self.is_moved[i] = true;
-                self.moved.push(i as u32);
-            }
-        }
-        report
-    }
-}
-
 /// One point's update: `None` when the field near it has not changed. The Eq. 9 predictor uses
 /// the stored unit normal (the field is distance-like, `‖∇F‖ ≈ 1`; Newton corrects the rest),
 /// then `newton_steps` Newton steps on `F`, then one evaluation for the normal and residual.
 /// The caller discards updates whose residual exceeds a grid spacing (stranded points).
 /// The flag says whether `f_base` was evaluated exactly.
-fn follow_point(
+pub(crate) fn follow_point(
     base: &GlobalField,
     model: &DynamicGrid,
-    cache: &mut PointCache,
+    mut cache: PointCache,
     x0: DVec3,
     n0: DVec3,
     dt: f64,
     opts: &FollowOptions,
-) -> Option<(DVec3, DVec3, f64, bool)> {
+) -> Option<PointUpdate> {
     let here = displacement_at(model, x0);
     let (d0, fdot) = here.map_or((0.0, 0.0), |(d, _, v)| (d, v));
     if here.is_none() && cache.seen == 0.0 {
@@ -248,7 +165,7 @@ fn follow_point(
     let mut eval = |x: DVec3| -> (f64, DVec3) {
         if !cache.valid || x.distance(cache.x) > opts.taylor_radius {
             let (f, g) = base.value_and_gradient(x);
-            *cache = PointCache {
+            cache = PointCache {
                 valid: true,
                 x,
                 f,
@@ -276,7 +193,13 @@ fn follow_point(
     }
     let (f, g) = eval(x);
     cache.seen = displacement_at(model, x).map_or(0.0, |(d, _, _)| d);
-    Some((x, g.try_normalize().unwrap_or(n0), f.abs(), exact))
+    Some(PointUpdate {
+        position: x,
+        normal: g.try_normalize().unwrap_or(n0),
+        residual: f.abs(),
+        exact,
+        cache,
+    })
 }
 
 /// `δ ∇F/‖∇F‖²` clamped to length `h`; `None` for a vanishing or non-finite gradient.

@@ -157,7 +157,7 @@ impl Region {
     pub fn memory_bytes(&self) -> usize {
         self.model.memory_bytes()
             + self.inside.capacity() * 4
-            + self.follower.moved().len() * 4
+            + self.follower.memory_bytes()
             + self.samples.capacity() * 8
     }
 }

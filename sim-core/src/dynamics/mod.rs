@@ -12,6 +12,7 @@
 pub mod cg;
 pub mod integrators;
 pub mod model;
+mod springs;
 pub mod stability;
 
 pub use integrators::{Integrator, StepError, StepReport, Stepper};

@@ -20,6 +20,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use crate::dynamics::DynamicsError;
+use crate::dynamics::springs::SpringTable;
 use crate::grid::{GridSpec, ScalarGrid};
 
 /// Marks a neighbour that is inside the grid but inactive (fixed at rest).
@@ -99,6 +100,8 @@ pub struct DynamicGrid {
     pub(crate) v: Vec<f64>,
     pub(crate) force: Vec<f64>,
     pub(crate) params: ParamArrays,
+    /// `K` in a branch-free form, kept in step with `params`.
+    pub(crate) springs: SpringTable,
     time: f64,
     pool: Vec<Arc<ScalarGrid>>,
 }
@@ -124,11 +127,18 @@ impl DynamicGrid {
         if active.is_empty() {
             return Err(DynamicsError::EmptyBand);
         }
-        let nbr = active
+        let nbr: Vec<[u32; 6]> = active
             .iter()
             .map(|&g| neighbours(&spec, &slot_of, g as usize))
             .collect();
         let n = active.len();
+        let params = ParamArrays {
+            mass: vec![params.mass; n],
+            damping: vec![params.damping; n],
+            stiffness: vec![params.stiffness; n],
+            anchor: vec![params.anchor; n],
+        };
+        let springs = SpringTable::build(&nbr, &params);
         Ok(Self {
             spec,
             band,
@@ -139,12 +149,8 @@ impl DynamicGrid {
             u: vec![0.0; n],
             v: vec![0.0; n],
             force: vec![0.0; n],
-            params: ParamArrays {
-                mass: vec![params.mass; n],
-                damping: vec![params.damping; n],
-                stiffness: vec![params.stiffness; n],
-                anchor: vec![params.anchor; n],
-            },
+            params,
+            springs,
             time: 0.0,
             pool: Vec::new(),
         })
@@ -279,6 +285,13 @@ impl DynamicGrid {
         let p = &mut self.params;
         (p.mass[s], p.damping[s], p.stiffness[s], p.anchor[s]) =
             (np.mass, np.damping, np.stiffness, np.anchor);
+        // Springs are shared with the neighbours: refresh their rows too.
+        self.springs.update_row(s, &self.nbr, &self.params);
+        for &j in &self.nbr[s] {
+            if j != ABSENT && j != FIXED {
+                self.springs.update_row(j as usize, &self.nbr, &self.params);
+            }
+        }
         Ok(())
     }
 
@@ -310,88 +323,10 @@ impl DynamicGrid {
         self.v.fill(0.0);
     }
 
-    /// `K u` at slot `s` for the displacement vector `x` (anchors + neighbour springs).
-    #[inline]
-    pub(crate) fn stiffness_apply(&self, x: &[f64], s: usize) -> f64 {
-        let p = &self.params;
-        let (xs, ks) = (x[s], p.stiffness[s]);
-        let mut acc = p.anchor[s] * xs;
-        for &j in &self.nbr[s] {
-            match j {
-                ABSENT => {}
-                FIXED => acc += ks * xs,
-                j => acc += 0.5 * (ks + p.stiffness[j as usize]) * (xs - x[j as usize]),
-            }
-        }
-        acc
-    }
-
-    /// Diagonal of `K` at slot `s`.
-    #[inline]
-    pub(crate) fn stiffness_diag(&self, s: usize) -> f64 {
-        let p = &self.params;
-        let ks = p.stiffness[s];
-        let mut acc = p.anchor[s];
-        for &j in &self.nbr[s] {
-            match j {
-                ABSENT => {}
-                FIXED => acc += ks,
-                j => acc += 0.5 * (ks + p.stiffness[j as usize]),
-            }
-        }
-        acc
-    }
-
-    /// Acceleration `(f − c u̇ − K u)/m` of every slot for the state `(x, xd)`, into `out`.
-    pub(crate) fn acceleration(&self, x: &[f64], xd: &[f64], out: &mut [f64]) {
-        let p = &self.params;
-        for s in 0..out.len() {
-            let f = self.force[s] - p.damping[s] * xd[s] - self.stiffness_apply(x, s);
-            out[s] = f / p.mass[s];
-        }
-    }
-
-    /// `(K x)_s`: the elastic force of displacement vector `x` at slot `s` (for checks).
-    pub fn stiffness_times(&self, x: &[f64], s: usize) -> f64 {
-        self.stiffness_apply(x, s)
-    }
-
-    /// Current acceleration of every slot, into `out` (one entry per slot).
-    pub fn acceleration_into(&self, out: &mut [f64]) {
-        self.acceleration(&self.u, &self.v, out);
-    }
-
-    /// Mechanical energy `½ u̇ᵀMu̇ + ½ uᵀKu` (J).
-    pub fn energy(&self) -> f64 {
-        let p = &self.params;
-        let kinetic: f64 = (0..self.u.len())
-            .map(|s| 0.5 * p.mass[s] * self.v[s] * self.v[s])
-            .sum();
-        let potential: f64 = (0..self.u.len())
-            .map(|s| 0.5 * self.u[s] * self.stiffness_apply(&self.u, s))
-            .sum();
-        kinetic + potential
-    }
-
-    /// Upper bound (Gershgorin) on the highest natural angular frequency `ω_max = √λ_max(M⁻¹K)`.
-    pub fn omega_max_bound(&self) -> f64 {
-        (0..self.u.len())
-            .map(|s| {
-                let p = &self.params;
-                let off: f64 = self.nbr[s]
-                    .iter()
-                    .filter(|&&j| j != ABSENT && j != FIXED)
-                    .map(|&j| 0.5 * (p.stiffness[s] + p.stiffness[j as usize]))
-                    .sum();
-                ((self.stiffness_diag(s) + off) / p.mass[s]).sqrt()
-            })
-            .fold(0.0, f64::max)
-    }
-
     /// Heap bytes held by the model's state (snapshots in the pool included).
     pub fn memory_bytes(&self) -> usize {
         let n = self.active.len();
-        let per_slot = 4 + 24 + 7 * 8;
+        let per_slot = 4 + 24 + 7 * 8 + 7 * 8 + 24;
         let per_node = 4 + 8;
         n * per_slot + self.slot_of.len() * per_node + self.pool.len() * self.rest.len() * 8
     }

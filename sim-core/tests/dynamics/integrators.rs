@@ -317,3 +317,53 @@ fn overdamped_light_nodes_have_the_fast_pole_limit() {
         "FE {fe} vs {fe_pred}"
     );
 }
+
+#[test]
+fn edited_node_parameters_take_effect_in_k() {
+    // K u from the model's table must equal the definition, a u_s + Σ_j (k_s + k_j)/2 (u_s − u_j)
+    // with fixed neighbours at 0, after editing the parameters of a ball of nodes (round-off
+    // only: 1e-12 relative).
+    use sim_core::dynamics::model::{ABSENT, FIXED};
+    let mut m = DynamicGrid::new(&sphere_grid(0.3, 0.5, 15), 0.12, NodeParams::default()).unwrap();
+    perturb(&mut m, 1e-3);
+    let stiff = NodeParams {
+        stiffness: 500.0,
+        anchor: 7.0,
+        ..NodeParams::default()
+    };
+    let edited = m
+        .set_params_in_ball(glam::DVec3::new(0.0, 0.0, 0.3), 0.1, stiff)
+        .unwrap();
+    assert!(edited > 10);
+    let u = m.displacement().to_vec();
+    for s in 0..m.active_len() {
+        let p = m.node_params(s);
+        let mut want = p.anchor * u[s];
+        for &j in m.neighbours_of(s) {
+            match j {
+                ABSENT => {}
+                FIXED => want += p.stiffness * u[s],
+                j => {
+                    want += 0.5
+                        * (p.stiffness + m.node_params(j as usize).stiffness)
+                        * (u[s] - u[j as usize])
+                }
+            }
+        }
+        let got = m.stiffness_times(&u, s);
+        assert!(
+            (got - want).abs() <= 1e-12 * want.abs().max(1e-9),
+            "slot {s}: {got} vs {want}"
+        );
+    }
+    assert!(
+        m.set_node_params(
+            0,
+            NodeParams {
+                mass: -1.0,
+                ..NodeParams::default()
+            }
+        )
+        .is_err()
+    );
+}

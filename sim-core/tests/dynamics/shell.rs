@@ -101,32 +101,35 @@ fn sheet_selective_pull_moves_only_the_picked_sheet() {
 #[test]
 fn pushing_through_the_shell_keeps_points_on_what_is_left_then_releases_them() {
     // Raising values by 3 cm (> T/2) near the axis erases the slab there (F(0) > 0). Points
-    // slide along ∇F to the rim of the hole or, with no zero set within a grid spacing, are
-    // stranded in place: every point is either on the zero set (|F| ≤ 1e-3 m) or counted as
-    // stranded, none is NaN or thrown farther than reach + thickness (6 cm).
+    // slide along ∇F to the rim of the hole or, with no zero set within a grid spacing h, are
+    // stranded in place: every point off the zero set by more than h is counted as stranded,
+    // the accepted ones converge (all but a few within 1 mm), none is NaN or thrown farther
+    // than reach + thickness (6 cm).
     let (mut scene, before) = plate_scene();
     let r = rope(-ANCHOR * 0.03, None);
     let mut last = Default::default();
     for _ in 0..300 {
         last = scene.step(1e-3, std::slice::from_ref(&r)).unwrap().follow;
+        assert!(last.max_residual <= 0.004);
     }
     let obj = &scene.objects()[0];
     let model = scene.region().unwrap().model();
+    let residual = |p: &DVec3| {
+        sim_core::follow::sculpted_value(&obj.field, model, *p)
+            .0
+            .abs()
+    };
     assert!(sim_core::follow::sculpted_value(&obj.field, model, DVec3::ZERO).0 > 0.0);
-    let off = obj
-        .positions
-        .iter()
-        .filter(|p| {
-            sim_core::follow::sculpted_value(&obj.field, model, **p)
-                .0
-                .abs()
-                > 1e-3
-        })
-        .count();
+    let off = obj.positions.iter().filter(|p| residual(p) > 0.004).count();
+    let loose = obj.positions.iter().filter(|p| residual(p) > 1e-3).count();
     assert!(
         off <= last.stranded,
         "{off} points off the zero set, {} stranded",
         last.stranded
+    );
+    assert!(
+        loose <= last.stranded + 10,
+        "{loose} points off by more than 1 mm"
     );
     assert!(obj.positions.iter().all(|p| p.is_finite()));
     assert!(
