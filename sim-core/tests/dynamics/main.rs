@@ -1,6 +1,7 @@
 //! Integration tests of the dynamic sculpting model (issue 5): integrators and their limits,
 //! rollback, points following the field, tools, CSG, resampling, scenes. One binary.
 
+mod alloc;
 mod common;
 mod csg;
 mod integrators;
@@ -8,3 +9,6 @@ mod rope;
 mod scene;
 mod shell;
 mod tools;
+
+#[global_allocator]
+static ALLOCATOR: alloc::Counting = alloc::Counting;
