@@ -4,6 +4,7 @@
 
 mod alloc;
 mod bspline;
+mod continuity;
 mod field;
 mod plots;
 mod probe;
