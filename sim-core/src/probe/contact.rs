@@ -7,8 +7,9 @@ use super::{Probe, ProbeError, SampleGrid, SurfaceSample, tolerance};
 /// How the direction of the probe force is found (seed 004 §3.2.3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum DirectionMethod {
-    /// Depth-weighted mean of the sample normals `Σ a_i d_i N_i`: continuous when the probe
-    /// passes through a surface (never reverses), but turns quickly over sharp edges.
+    /// Depth-weighted mean of the sample normals `Σ a_i d_i N_i`: never reverses when the probe
+    /// passes through a sheet (a B-spline surface), but turns quickly over sharp edges; inside a
+    /// two-faced thin wall the faces' normals cancel (see [`MagnitudeMethod`]).
     #[default]
     SurfaceNormal,
     /// Depth-weighted mean of the inward probe normals `−∇f_p/‖∇f_p‖` at the samples: smooth
