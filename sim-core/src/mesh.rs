@@ -23,6 +23,26 @@ pub struct TriMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+impl TriMesh {
+    /// Area-weighted vertex normals from the triangles' winding (zero for a vertex that no
+    /// non-degenerate triangle uses). For a consistently wound mesh they face outward.
+    pub fn vertex_normals(&self) -> Vec<DVec3> {
+        let mut n = vec![DVec3::ZERO; self.vertices.len()];
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+            let area_normal = (b - a).cross(c - a);
+            if area_normal.is_finite() {
+                for &i in t {
+                    n[i as usize] += area_normal;
+                }
+            }
+        }
+        n.into_iter()
+            .map(|v| v.try_normalize().unwrap_or(DVec3::ZERO))
+            .collect()
+    }
+}
+
 /// Extract the zero set of `field` inside `bounds` on a grid whose longest side has `resolution`
 /// cells (clamped to 8..=1024). Runs on all cores.
 pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution: usize) -> TriMesh {
