@@ -17,11 +17,10 @@ use crate::dynamics::{
 use crate::field::GlobalField;
 use crate::follow::{FollowOptions, FollowReport, Follower, refit_moved};
 use crate::grid::{GridError, GridSpec, ScalarGrid};
-use crate::local_fit::FitParams;
-use crate::reconstruct::{IgnoreStages, NormalPolicy, ReconstructError, reconstruct};
-use crate::resample::Insertion;
+use crate::reconstruct::ReconstructError;
 use crate::tools::{Rope, ToolError};
-use crate::{NoProgress, PointSet};
+
+mod edit;
 
 /// One object: its points (positions, unit normals, colours) and its implicit field.
 #[derive(Debug, Clone)]
@@ -341,92 +340,6 @@ impl Scene {
         self.end_stroke()?;
         self.region = None;
         Ok(())
-    }
-
-    /// Append points to `object` (e.g. up-sampling insertions, colour from the parent point).
-    /// They follow the field at once but carry no local field until [`Scene::refit`].
-    pub fn insert_points(&mut self, object: usize, items: &[Insertion]) -> Result<(), SceneError> {
-        let obj = self
-            .objects
-            .get_mut(object)
-            .ok_or(SceneError::NoObject(object))?;
-        let first = obj.positions.len();
-        for it in items {
-            let color = obj
-                .colors
-                .get(it.parent)
-                .copied()
-                .unwrap_or([128, 128, 128]);
-            obj.positions.push(it.position);
-            obj.normals.push(it.normal);
-            obj.colors.push(color);
-        }
-        if let Some(region) = self.region.as_mut().filter(|r| r.object == object) {
-            let spec = *region.model.spec();
-            region.follower.grow(obj.positions.len());
-            region.inside.extend(
-                (first as u32..obj.positions.len() as u32)
-                    .filter(|&i| spec.contains(obj.positions[i as usize])),
-            );
-        }
-        Ok(())
-    }
-
-    /// Replace `object`'s points (after down-sampling, CSG, embossing…) and refit its field.
-    /// An open region on it is closed first (ending the stroke) and reopened on the new field.
-    pub fn replace_points(
-        &mut self,
-        object: usize,
-        points: PointSet,
-        fit: &FitParams,
-    ) -> Result<(), SceneError> {
-        if object >= self.objects.len() {
-            return Err(SceneError::NoObject(object));
-        }
-        let reopen = match &self.region {
-            Some(r) if r.object == object => Some((r.bounds, r.params)),
-            _ => None,
-        };
-        if reopen.is_some() {
-            self.close_region()?;
-        }
-        let rec = reconstruct(
-            &points,
-            fit,
-            NormalPolicy::Keep,
-            &mut IgnoreStages,
-            &NoProgress,
-        )?;
-        let obj = &mut self.objects[object];
-        let n = points.positions.len();
-        obj.colors = points.colors.unwrap_or_else(|| vec![[200, 200, 200]; n]);
-        obj.positions = points.positions;
-        obj.normals = rec.normals;
-        obj.field = rec.field;
-        if let Some(((min, max), params)) = reopen {
-            self.open_region(object, min, max, params)?;
-        }
-        Ok(())
-    }
-
-    /// Refit `object`'s field from its current points and normals (see [`Scene::replace_points`]).
-    pub fn refit(&mut self, object: usize, fit: &FitParams) -> Result<(), SceneError> {
-        let obj = self
-            .objects
-            .get(object)
-            .ok_or(SceneError::NoObject(object))?;
-        let points = PointSet {
-            positions: obj.positions.clone(),
-            normals: Some(obj.normals.clone()),
-            colors: Some(obj.colors.clone()),
-        };
-        self.replace_points(object, points, fit)
-    }
-
-    /// Mutable access to an object's points and colours for tools that edit them in place
-    /// (painting). Positions must stay on the surface; see [`Scene::refit`] otherwise.
-    pub fn object_mut(&mut self, object: usize) -> Option<&mut SceneObject> {
-        self.objects.get_mut(object)
     }
 
     /// A snapshot of the region's field for the haptic thread.
