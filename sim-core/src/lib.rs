@@ -15,6 +15,12 @@
 //! point, friction and damping; the local contact models the haptics server renders; the
 //! sculpting reaction), [`probe`] (the shaped ellipsoid probe of seed 004) and
 //! [`bspline_surface`] (a B-spline patch with its mass-spring dual, sculpted by the probe).
+//!
+//! Dynamic sculpting (DESIGN §3–4): [`grid`] (regular grids and the immutable [`grid::ScalarGrid`]
+//! snapshots the haptic thread samples) → [`dynamics`] (the narrow-band mass-spring field and its
+//! forward/symplectic/backward Euler steppers) → [`follow`] (points follow the zero set, local
+//! fields are refitted) → [`scene`] (objects and the one simulated region); [`tools`] (rope,
+//! painting, embossing), [`csg`] (Booleans with crease samples), [`resample`] (up/down-sampling).
 
 pub mod accuracy;
 pub mod bspline;
