@@ -1,6 +1,8 @@
 //! The global implicit field (papers' Eq. 5): local B-spline fields blended by compactly
 //! supported weights, `f(x) = Σ sᵢ(x) φᵢ(x) / Σ φᵢ(x)`, with the nearest point's signed distance
-//! where no support covers `x`. Sign: `f < 0` inside, `f > 0` outside, `∇f` outward.
+//! where no support covers `x`; where the covering fields come from the two opposite sides of
+//! a thin solid or gap, the sides are blended apart and combined by max / min (see
+//! [`GlobalField::value_and_gradient`]). Sign: `f < 0` inside, `f > 0` outside, `∇f` outward.
 //!
 //! Contract: a [`GlobalField`] is immutable and cheap to clone (one `Arc`), so a simulation can
 //! hand snapshots to other threads. [`GlobalField::value_and_gradient`] costs O(supports at x),
@@ -186,39 +188,49 @@ impl GlobalField {
 
     /// `f(x)` and `∇f(x)`. Allocation-free; finite for finite `x`.
     ///
-    /// Where the supports covering `x` come from opposite sheets (normals with a dot product
-    /// below `normal_agreement`: a thin shell, a thin gap, a sharp sparse tip), only the fields
-    /// facing like the nearest point's normal are blended, so the sheets cannot average each
-    /// other away. The field then jumps where the nearest point changes sheet: inside a thin
-    /// solid (both sides negative) or inside a thin gap (both positive), never across f = 0.
+    /// The covering fields are blended in two groups, split by the sign of their normal's dot
+    /// product with the first one's. When the groups face opposite ways (mean normals with a dot
+    /// product below `normal_agreement`: the two sides of a thin solid, or of a thin gap, closer
+    /// than the supports) averaging them would erase both sheets; instead each group is blended
+    /// alone and the two are combined like a CSG of half-spaces: `max` (intersection) when the
+    /// groups face away from each other (a thin solid), `min` (union) when they face each other
+    /// (a gap). The result is continuous, with a crease where the sides meet.
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
-        let d = &*self.inner;
-        let mut acc = self.blend(x, None);
-        if acc.mixed {
-            let (item, _) = d.nearest.nearest(x);
-            let facing = d.normals[d.nearest_ids[item] as usize];
-            acc = self.blend(x, Some(facing));
+        let [a, b] = self.blend(x);
+        let agreement = self.inner.params.normal_agreement;
+        let opposed = a.sw > 0.0
+            && b.sw > 0.0
+            && a.normal.dot(b.normal) < agreement * a.normal.length() * b.normal.length();
+        let result = if opposed {
+            let (fa, fb) = (a.value(), b.value());
+            let solid = (a.centre / a.sw - b.centre / b.sw).dot(a.normal) > 0.0;
+            let pick_a = if solid { fa.0 >= fb.0 } else { fa.0 <= fb.0 };
+            Some(if pick_a { fa } else { fb })
+        } else {
+            let all = Blend {
+                sw: a.sw + b.sw,
+                swf: a.swf + b.swf,
+                gsw: a.gsw + b.gsw,
+                gswf: a.gswf + b.gswf,
+                ..Blend::default()
+            };
+            (all.sw > 1e-12).then(|| all.value())
+        };
+        match result {
+            Some((f, g)) if f.is_finite() && g.is_finite() => (f, g),
+            _ => self.nearest_signed_distance(x),
         }
-        if acc.sw > 1e-12 {
-            let f = acc.swf / acc.sw;
-            let g = (acc.gswf - acc.gsw * f) / acc.sw;
-            if f.is_finite() && g.is_finite() {
-                return (f, g);
-            }
-        }
-        self.nearest_signed_distance(x)
     }
 
-    /// Accumulate the blend at `x` over the supports containing it, optionally only over fields
-    /// whose normal agrees with `facing`; reports whether the fields' normals disagree.
+    /// Accumulate the blend at `x` over the supports containing it, in two groups split by the
+    /// sign of each field's normal against the first covering field's.
     #[inline]
-    fn blend(&self, x: DVec3, facing: Option<DVec3>) -> Blend {
+    fn blend(&self, x: DVec3) -> [Blend; 2] {
         let d = &*self.inner;
         let size = d.params.size;
         let c = size * size * size;
-        let agreement = d.params.normal_agreement;
-        let mut acc = Blend::default();
-        let mut reference: Option<DVec3> = facing;
+        let mut groups = [Blend::default(); 2];
+        let mut reference: Option<DVec3> = None;
         d.grid.for_each_candidate(x, |i| {
             let r = d.support[i];
             let fr = &d.frames[i];
@@ -228,12 +240,8 @@ impl GlobalField {
                 return;
             }
             let normal = fr.axes[2];
-            match (facing, reference) {
-                (Some(f), _) if normal.dot(f) < agreement => return,
-                (None, Some(n)) if normal.dot(n) < agreement => acc.mixed = true,
-                (None, None) => reference = Some(normal),
-                _ => {}
-            }
+            let n_ref = *reference.get_or_insert(normal);
+            let acc = &mut groups[usize::from(normal.dot(n_ref) < 0.0)];
             let dist = dist2.sqrt();
             let (phi, dphi) = weight(dist / r);
             let gphi = if dist > 0.0 {
@@ -249,8 +257,10 @@ impl GlobalField {
             acc.swf += phi * s;
             acc.gsw += gphi;
             acc.gswf += gphi * s + gs * phi;
+            acc.centre += fr.center * phi;
+            acc.normal += normal * phi;
         });
-        acc
+        groups
     }
 
     /// Signed distance to the nearest inlier point, signed by its normal (the fallback where
@@ -354,15 +364,24 @@ impl GlobalField {
     }
 }
 
-/// Running sums of the blend at one point.
+/// Running sums of the blend of one group of fields at one point.
 #[derive(Debug, Clone, Copy, Default)]
 struct Blend {
     sw: f64,
     swf: f64,
     gsw: DVec3,
     gswf: DVec3,
-    /// Some covering fields face opposite ways.
-    mixed: bool,
+    /// `Σ φᵢ cᵢ` and `Σ φᵢ nᵢ`: where the group's points are and which way they face.
+    centre: DVec3,
+    normal: DVec3,
+}
+
+impl Blend {
+    /// `(f, ∇f)` of this group alone (`sw > 0`).
+    fn value(&self) -> (f64, DVec3) {
+        let f = self.swf / self.sw;
+        (f, (self.gswf - self.gsw * f) / self.sw)
+    }
 }
 
 impl Clone for FieldData {
