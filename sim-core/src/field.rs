@@ -194,7 +194,9 @@ impl GlobalField {
     /// than the supports) averaging them would erase both sheets; instead each group is blended
     /// alone and the two are combined like a CSG of half-spaces: `max` (intersection) when the
     /// groups face away from each other (a thin solid), `min` (union) when they face each other
-    /// (a gap). The result is continuous, with a crease where the sides meet.
+    /// (a gap). There f has a crease where the sides meet, and it can step where the split
+    /// switches on (the groups' mean normals crossing the threshold); elsewhere it is the
+    /// papers' C¹ blend.
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         let [a, b] = self.blend(x);
         let agreement = self.inner.params.normal_agreement;
