@@ -5,6 +5,7 @@ mod alloc;
 mod common;
 mod csg;
 mod integrators;
+mod plots;
 mod rope;
 mod scene;
 mod shell;

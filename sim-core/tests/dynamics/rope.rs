@@ -9,9 +9,9 @@ use sim_core::tools::{Profile, Rope};
 
 use crate::common::fitted_object;
 
-const R0: f64 = 0.3;
+pub(crate) const R0: f64 = 0.3;
 const ANCHOR: f64 = 100.0;
-const PEAK: f64 = 0.01;
+pub(crate) const PEAK: f64 = 0.01;
 const REACH: f64 = 0.15;
 
 fn region() -> RegionParams {
@@ -31,7 +31,7 @@ fn region() -> RegionParams {
     }
 }
 
-fn pulled_sphere(profile: Profile) -> (Scene, Vec<DVec3>) {
+pub(crate) fn pulled_sphere(profile: Profile) -> (Scene, Vec<DVec3>) {
     let mut scene = Scene::new();
     let id = scene.add(fitted_object(Shape::Sphere { radius: R0 }, 4000, 3));
     let before = scene.objects()[id].positions.clone();
@@ -57,7 +57,7 @@ fn pulled_sphere(profile: Profile) -> (Scene, Vec<DVec3>) {
 }
 
 /// Height `h` solving `h = PEAK·w(|p + h n − c| / REACH)` (the displaced zero set at `p`).
-fn expected_height(profile: &Profile, p: DVec3) -> f64 {
+pub(crate) fn expected_height(profile: &Profile, p: DVec3) -> f64 {
     let c = DVec3::new(0.0, 0.0, R0);
     let n = p.normalize();
     let mut h = 0.0;
