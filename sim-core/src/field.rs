@@ -58,12 +58,22 @@ pub enum FieldError {
 }
 
 /// The blended implicit surface of a point set.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct GlobalField {
     inner: Arc<FieldData>,
 }
 
-#[derive(Debug)]
+impl std::fmt::Debug for GlobalField {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GlobalField")
+            .field("points", &self.len())
+            .field("outliers", &self.outlier_count())
+            .field("scale", &self.scale())
+            .field("params", &self.inner.params)
+            .finish_non_exhaustive()
+    }
+}
+
 struct FieldData {
     params: FitParams,
     frames: Vec<LocalFrame>,

@@ -84,7 +84,7 @@ pub struct FitArgs {
 /// `--normals`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum NormalsArg {
-    /// Keep given normals; estimate only missing ones.
+    /// Keep given normals (a mesh without normals: from its faces); estimate only missing ones.
     Keep,
     /// Make given normals' signs consistent (repairs flipped normals).
     Reorient,
