@@ -4,8 +4,8 @@
 //! two apart (bending). Integration is semi-implicit (symplectic) Euler — velocity first, then
 //! position with the new velocity — which is the seed's Euler made stable for undamped springs;
 //! [`MassSpringMesh::step`] splits a haptic tick into equal substeps no longer than
-//! [`MassSpringMesh::stable_dt`] (half the Gershgorin bound `2/ω_max` and the damping bound
-//! `2/damping_rate`). Plasticity (`plastic_rate`) relaxes rest lengths toward the current lengths so a
+//! [`MassSpringMesh::stable_dt`]: a quarter of the Gershgorin bound `2/ω_max` and of the
+//! damping bound `2/damping_rate` (half was measured not to be enough, see `BOUND_FRACTION`). Plasticity (`plastic_rate`) relaxes rest lengths toward the current lengths so a
 //! sculpted shape stays. Scratch is allocated once; a step that would produce a non-finite
 //! state is rolled back and reported.
 
@@ -32,6 +32,28 @@ pub struct MeshParams {
     pub pin_border: bool,
 }
 
+/// Most substeps one [`MassSpringMesh::step`] takes; a mesh folded so far that it needs more
+/// runs past its bound (a resulting non-finite state is rolled back).
+pub const MAX_SUBSTEPS: usize = 1000;
+
+/// Half of the tighter of the spring bound `2/ω` (Gershgorin: `ω² ≤ 2 max Σk / m`) and the
+/// damping bound `2/damping_rate`; 1 s if neither binds.
+fn stable_step(k_max: f64, mass: f64, damping_rate: f64) -> f64 {
+    let omega = (2.0 * k_max / mass).sqrt();
+    let spring = if omega > 0.0 {
+        2.0 / omega
+    } else {
+        f64::INFINITY
+    };
+    let damper = if damping_rate > 0.0 {
+        2.0 / damping_rate
+    } else {
+        f64::INFINITY
+    };
+    let dt = 0.25 * spring.min(damper);
+    if dt.is_finite() { dt } else { 1.0 }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Spring {
     a: u32,
@@ -52,6 +74,9 @@ pub struct MassSpringMesh {
     springs: Vec<Spring>,
     forces: Vec<DVec3>,
     saved: Vec<(DVec3, DVec3)>,
+    /// Rest lengths at the start of the step (plastic meshes), for the rollback.
+    saved_rest: Vec<f64>,
+    /// Longest stable substep.
     stable_dt: f64,
 }
 
@@ -110,19 +135,11 @@ impl MassSpringMesh {
             }
         }
         let mass = p.total_mass / (n * n) as f64;
-        let k_max = incident.iter().cloned().fold(0.0, f64::max);
-        let omega = (2.0 * k_max / mass).sqrt();
-        let spring_dt = if omega > 0.0 {
-            2.0 / omega
-        } else {
-            f64::INFINITY
-        };
-        let damp_dt = if p.damping_rate > 0.0 {
-            2.0 / p.damping_rate
-        } else {
-            f64::INFINITY
-        };
-        let stable_dt = 0.5 * spring_dt.min(damp_dt);
+        let stable_dt = stable_step(
+            incident.iter().cloned().fold(0.0, f64::max),
+            mass,
+            p.damping_rate,
+        );
         let pinned = (0..n * n)
             .map(|q| p.pin_border && (q / n == 0 || q / n == n - 1 || q % n == 0 || q % n == n - 1))
             .collect();
@@ -135,12 +152,9 @@ impl MassSpringMesh {
             saved: vec![(DVec3::ZERO, DVec3::ZERO); n * n],
             positions,
             pinned,
+            saved_rest: Vec::with_capacity(springs.len()),
             springs,
-            stable_dt: if stable_dt.is_finite() {
-                stable_dt
-            } else {
-                1.0
-            },
+            stable_dt,
         })
     }
 
@@ -180,7 +194,8 @@ impl MassSpringMesh {
     }
 
     /// Advance `dt` seconds under constant `external` forces (N, one per point), in
-    /// `ceil(dt / stable_dt)` equal substeps. On a non-finite input or result nothing changes.
+    /// `ceil(dt / stable_dt)` equal substeps (at most [`MAX_SUBSTEPS`]). On a non-finite input
+    /// or result nothing changes.
     pub fn step(&mut self, dt: f64, external: &[DVec3]) -> Result<usize, SurfaceError> {
         if external.len() != self.positions.len() {
             return Err(SurfaceError::WrongLength {
@@ -192,7 +207,7 @@ impl MassSpringMesh {
         if !valid {
             return Err(SurfaceError::NonFinite);
         }
-        let substeps = (dt / self.stable_dt).ceil().max(1.0) as usize;
+        let substeps = (dt / self.stable_dt).ceil().clamp(1.0, MAX_SUBSTEPS as f64) as usize;
         let h = dt / substeps as f64;
         for (s, (x, v)) in self
             .saved
@@ -200,6 +215,11 @@ impl MassSpringMesh {
             .zip(self.positions.iter().zip(&self.velocities))
         {
             *s = (*x, *v);
+        }
+        let plastic = self.params.plastic_rate > 0.0;
+        if plastic {
+            self.saved_rest.clear();
+            self.saved_rest.extend(self.springs.iter().map(|s| s.rest));
         }
         for _ in 0..substeps {
             self.substep(h, external);
@@ -216,6 +236,11 @@ impl MassSpringMesh {
                 .zip(self.positions.iter_mut().zip(self.velocities.iter_mut()))
             {
                 (*x, *v) = *s;
+            }
+            if plastic {
+                for (s, rest) in self.springs.iter_mut().zip(&self.saved_rest) {
+                    s.rest = *rest;
+                }
             }
             return Err(SurfaceError::Diverged);
         }
@@ -234,8 +259,11 @@ impl MassSpringMesh {
                 self.forces[a] += f;
                 self.forces[b] -= f;
             }
-            s.rest += (len - s.rest) * relax;
+            if len.is_finite() {
+                s.rest += (len - s.rest) * relax;
+            }
         }
+
         let (c, m) = (self.params.damping_rate * self.mass, self.mass);
         for q in 0..self.positions.len() {
             if self.pinned[q] {
@@ -246,6 +274,25 @@ impl MassSpringMesh {
             self.velocities[q] += h * a;
             self.positions[q] += h * self.velocities[q];
         }
+    }
+
+    /// Kinetic plus spring energy, J (pinned points count no kinetic energy; they do not move).
+    pub fn energy(&self) -> f64 {
+        let kinetic: f64 = self
+            .velocities
+            .iter()
+            .map(|v| 0.5 * self.mass * v.length_squared())
+            .sum();
+        let springs: f64 = self
+            .springs
+            .iter()
+            .map(|s| {
+                let stretch =
+                    self.positions[s.a as usize].distance(self.positions[s.b as usize]) - s.rest;
+                0.5 * s.k * stretch * stretch
+            })
+            .sum();
+        kinetic + springs
     }
 
     /// The springs' force on every point (no external or damping forces), N, into `out`.

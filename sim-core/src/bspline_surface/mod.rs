@@ -19,7 +19,7 @@ mod sculpt;
 
 pub use basis::{CubicBasis, collocation_matrix, cubic_basis, invert, mass_parameter};
 pub use dual::DualMap;
-pub use mass_spring::{MassSpringMesh, MeshParams};
+pub use mass_spring::{MAX_SUBSTEPS, MassSpringMesh, MeshParams};
 pub use patch::BicubicPatch;
 pub use sculpt::{ProbeSculptor, SculptTick};
 

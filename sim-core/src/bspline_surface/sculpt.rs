@@ -12,7 +12,7 @@
 
 use glam::DVec3;
 
-use super::{BicubicPatch, DualMap, MassSpringMesh, MeshParams, SurfaceError};
+use super::{BicubicPatch, DualMap, MAX_SUBSTEPS, MassSpringMesh, MeshParams, SurfaceError};
 use crate::haptic::{ContactModel, HapticOutput, hua_qin_force};
 use crate::probe::{ContactParams, Probe, ProbeRenderer, SurfaceSample};
 use protocol::packet::ModelKind;
@@ -43,7 +43,8 @@ pub struct ProbeSculptor {
     samples: Vec<SurfaceSample>,
     external: Vec<DVec3>,
     internal: Vec<DVec3>,
-    substep_dt: f64,
+    /// Longest substep stable for the tool's spring-dampers on one point, s.
+    tool_dt: f64,
     validity_radius: f64,
     lifetime_s: f64,
 }
@@ -64,7 +65,7 @@ impl ProbeSculptor {
         let mut points = vec![DVec3::ZERO; n * n];
         dual.to_mesh(patch.control(), &mut points);
         let mesh = MassSpringMesh::new(n, points, mesh)?;
-        let substep_dt = mesh.stable_dt().min(tool_stable_dt(&mesh, &contact, n));
+        let tool_dt = tool_stable_dt(&mesh, &contact, n);
         let renderer = ProbeRenderer::new(contact, n * n).map_err(|_| SurfaceError::NonFinite)?;
         let placeholder = SurfaceSample {
             position: DVec3::ZERO,
@@ -79,7 +80,7 @@ impl ProbeSculptor {
             samples: vec![placeholder; n * n],
             external: vec![DVec3::ZERO; n * n],
             internal: vec![DVec3::ZERO; n * n],
-            substep_dt,
+            tool_dt,
             validity_radius,
             lifetime_s,
         })
@@ -109,6 +110,9 @@ impl ProbeSculptor {
         pressed: bool,
         dt: f64,
     ) -> Result<SculptTick, SurfaceError> {
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(SurfaceError::NonFinite);
+        }
         let cursor = probe.center();
         if !pressed {
             self.mesh.samples(&mut self.samples);
@@ -129,7 +133,8 @@ impl ProbeSculptor {
         } else {
             DVec3::ZERO
         };
-        let substeps = (dt / self.substep_dt).ceil().max(1.0) as usize;
+        let substep_dt = self.mesh.stable_dt().min(self.tool_dt);
+        let substeps = (dt / substep_dt).ceil().clamp(1.0, MAX_SUBSTEPS as f64) as usize;
         let h = dt / substeps as f64;
         let k = self.renderer.params().surface_stiffness;
         let b = self.renderer.params().surface_damping;
