@@ -5,9 +5,10 @@
 //! position with the new velocity — which is the seed's Euler made stable for undamped springs;
 //! [`MassSpringMesh::step`] splits a haptic tick into equal substeps no longer than
 //! [`MassSpringMesh::stable_dt`]: a quarter of the Gershgorin bound `2/ω_max` and of the
-//! damping bound `2/damping_rate` (half was measured not to be enough, see `BOUND_FRACTION`). Plasticity (`plastic_rate`) relaxes rest lengths toward the current lengths so a
-//! sculpted shape stays. Scratch is allocated once; a step that would produce a non-finite
-//! state is rolled back and reported.
+//! damping bound `2/damping_rate` (half was measured not to be enough, see `BOUND_FRACTION`).
+//! Plasticity (`plastic_rate`) relaxes rest lengths toward the current lengths so a sculpted
+//! shape stays. Scratch is allocated once; a step that would produce a non-finite state is
+//! rolled back (positions, velocities, rest lengths) and reported.
 
 use glam::DVec3;
 
