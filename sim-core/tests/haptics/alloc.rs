@@ -162,3 +162,17 @@ fn sculpting_is_deterministic_bit_for_bit() {
     };
     assert_eq!(run(), run());
 }
+
+#[test]
+fn renderers_move_to_the_force_thread_and_snapshots_are_shared() {
+    // Compile-time contract: a force-mapping thread owns the renderers (Send) and reads the
+    // simulation's snapshots through an `Arc` (Send + Sync).
+    fn owned<T: Send + 'static>() {}
+    fn shared<T: Send + Sync + 'static>() {}
+    owned::<FieldForce>();
+    owned::<ProbeRenderer>();
+    owned::<ProbeSculptor>();
+    shared::<sim_core::grid::ScalarGrid>();
+    shared::<SampleGrid>();
+    shared::<Probe>();
+}
