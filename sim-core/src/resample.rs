@@ -89,13 +89,27 @@ pub fn upsample(
     field: &GlobalField,
     opts: &UpsampleOptions,
 ) -> Vec<Insertion> {
+    let all: Vec<usize> = (0..points.len()).collect();
+    upsample_at(points, normals, field, opts, &all)
+}
+
+/// [`upsample`] around the points listed in `which` only (all points still count as
+/// neighbours): the cost is O(|which|·k³), not O(N·k³).
+pub fn upsample_at(
+    points: &[DVec3],
+    normals: &[DVec3],
+    field: &GlobalField,
+    opts: &UpsampleOptions,
+    which: &[usize],
+) -> Vec<Insertion> {
     let mut out: Vec<Insertion> = Vec::new();
     if points.len() < 4 || opts.max_gap.is_nan() || opts.max_gap <= 0.0 {
         return out;
     }
     let index = PointIndex::new(points);
     let mut hood = Vec::with_capacity(opts.k);
-    for (i, (&p, &n)) in points.iter().zip(normals).enumerate() {
+    for &i in which {
+        let (p, n) = (points[i], normals[i]);
         hood.clear();
         hood.extend(
             index

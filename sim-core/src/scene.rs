@@ -18,6 +18,7 @@ use crate::field::GlobalField;
 use crate::follow::{FollowOptions, FollowReport, Follower, refit_moved};
 use crate::grid::{GridError, GridSpec, ScalarGrid};
 use crate::reconstruct::ReconstructError;
+use crate::resample::{UpsampleOptions, upsample_at};
 use crate::tools::{Rope, ToolError};
 
 mod edit;
@@ -55,6 +56,10 @@ pub struct RegionParams {
     pub follow_every: u32,
     /// How points follow.
     pub follow: FollowOptions,
+    /// Up-sample at the end of each stroke around the moved points where the largest empty
+    /// tangent circle is wider than this (m); `None`: never. Inserted points lie on the refitted
+    /// field and carry no local field until [`Scene::refit`].
+    pub auto_upsample: Option<f64>,
 }
 
 impl RegionParams {
@@ -69,6 +74,7 @@ impl RegionParams {
             refit_every_step: false,
             follow_every: 1,
             follow: FollowOptions::default(),
+            auto_upsample: None,
         }
     }
 }
@@ -331,6 +337,17 @@ impl Scene {
         region.model.commit();
         region.base = obj.field.clone();
         let n = region.follower.moved().len();
+        if let Some(max_gap) = region.params.auto_upsample {
+            let which: Vec<usize> = region
+                .follower
+                .moved()
+                .iter()
+                .map(|&i| i as usize)
+                .collect();
+            let opts = UpsampleOptions { max_gap, k: 16 };
+            let items = upsample_at(&obj.positions, &obj.normals, &obj.field, &opts, &which);
+            edit::append_points(obj, Some(region), &items);
+        }
         region.follower.clear_moved();
         Ok(n)
     }

@@ -145,6 +145,7 @@ fn region_params(r: &RegionSpec) -> RegionParams {
     RegionParams {
         node: r.node.unwrap_or_default(),
         integrator,
+        auto_upsample: r.auto_upsample,
         ..RegionParams::new(r.spacing, r.band)
     }
 }

@@ -1,7 +1,7 @@
 //! Point edits on scene objects: appending up-sampled points, replacing an object's points
 //! (down-sampling, CSG, embossing) and refitting its field, keeping an open region consistent.
 
-use super::{Scene, SceneError};
+use super::{Region, Scene, SceneError};
 use crate::local_fit::FitParams;
 use crate::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
 use crate::resample::Insertion;
@@ -16,25 +16,8 @@ impl Scene {
             .objects
             .get_mut(object)
             .ok_or(SceneError::NoObject(object))?;
-        let first = obj.positions.len();
-        for it in items {
-            let color = obj
-                .colors
-                .get(it.parent)
-                .copied()
-                .unwrap_or([128, 128, 128]);
-            obj.positions.push(it.position);
-            obj.normals.push(it.normal);
-            obj.colors.push(color);
-        }
-        if let Some(region) = self.region.as_mut().filter(|r| r.object == object) {
-            let spec = *region.model.spec();
-            region.follower.grow(obj.positions.len());
-            region.inside.extend(
-                (first as u32..obj.positions.len() as u32)
-                    .filter(|&i| spec.contains(obj.positions[i as usize])),
-            );
-        }
+        let region = self.region.as_mut().filter(|r| r.object == object);
+        append_points(obj, region, items);
         Ok(())
     }
 
@@ -93,5 +76,33 @@ impl Scene {
     /// (painting). Positions must stay on the surface; see [`Scene::refit`] otherwise.
     pub fn object_mut(&mut self, object: usize) -> Option<&mut SceneObject> {
         self.objects.get_mut(object)
+    }
+}
+
+/// Append `items` to `obj` (colour from the parent point) and, if its region is open, make the
+/// new points candidates of the follower.
+pub(super) fn append_points(
+    obj: &mut SceneObject,
+    region: Option<&mut Region>,
+    items: &[Insertion],
+) {
+    let first = obj.positions.len();
+    for it in items {
+        let color = obj
+            .colors
+            .get(it.parent)
+            .copied()
+            .unwrap_or([128, 128, 128]);
+        obj.positions.push(it.position);
+        obj.normals.push(it.normal);
+        obj.colors.push(color);
+    }
+    if let Some(region) = region {
+        let spec = *region.model.spec();
+        region.follower.grow(obj.positions.len());
+        region.inside.extend(
+            (first as u32..obj.positions.len() as u32)
+                .filter(|&i| spec.contains(obj.positions[i as usize])),
+        );
     }
 }

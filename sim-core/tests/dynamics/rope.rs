@@ -222,3 +222,71 @@ fn refitting_every_step_keeps_the_fitted_field_on_the_bump() {
     let top = DVec3::new(0.0, 0.0, R0 + PEAK);
     assert!(scene.objects()[id].field.value(top).abs() < 0.2 * PEAK);
 }
+
+#[test]
+fn stroke_end_upsampling_fills_the_gaps_it_finds() {
+    // With `auto_upsample` the end of a stroke inserts points where the largest empty tangent
+    // circle around a moved point exceeds the gap; without it nothing is inserted. The inserted
+    // points lie on the refitted zero set (0.5 mm: refit smoothing of a 25 mm plateau rim) next
+    // to moved points, and they fill the gaps: searching the same moved points again finds at
+    // most a third as many.
+    let sphere = fitted_object(Shape::Sphere { radius: R0 }, 4000, 3);
+    let gap = 2.0 * sim_core::resample::spacing(&sphere.positions);
+    let rope = Rope {
+        path: vec![DVec3::new(0.0, 0.0, R0)],
+        radius: REACH,
+        strength: ANCHOR * 0.025,
+        profile: Profile::Constant,
+        sheet: None,
+    };
+    let stroke = |auto_upsample: Option<f64>| {
+        let mut scene = Scene::new();
+        let id = scene.add(sphere.clone());
+        let params = RegionParams {
+            auto_upsample,
+            ..region()
+        };
+        scene
+            .open_region(
+                id,
+                DVec3::new(-0.25, -0.25, 0.1),
+                DVec3::new(0.25, 0.25, 0.42),
+                params,
+            )
+            .unwrap();
+        for _ in 0..300 {
+            scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
+        }
+        let moved: Vec<usize> = (0..sphere.positions.len())
+            .filter(|&i| scene.objects()[id].positions[i] != sphere.positions[i])
+            .collect();
+        scene.end_stroke().unwrap();
+        (scene, moved)
+    };
+    let (plain, _) = stroke(None);
+    assert_eq!(plain.objects()[0].positions.len(), sphere.positions.len());
+    let (scene, moved) = stroke(Some(gap));
+    let obj = &scene.objects()[0];
+    let n0 = sphere.positions.len();
+    let inserted = &obj.positions[n0..];
+    assert!(inserted.len() >= 5, "{}", inserted.len());
+    for p in inserted {
+        assert!(obj.field.value(*p).abs() < 5e-4);
+        let near = moved
+            .iter()
+            .any(|&i| obj.positions[i].distance(*p) < 2.0 * gap);
+        assert!(near, "inserted point {p} far from every moved point");
+    }
+    let opts = sim_core::resample::UpsampleOptions {
+        max_gap: gap,
+        k: 16,
+    };
+    let again =
+        sim_core::resample::upsample_at(&obj.positions, &obj.normals, &obj.field, &opts, &moved);
+    assert!(
+        3 * again.len() <= inserted.len(),
+        "{} gaps left of {}",
+        again.len(),
+        inserted.len()
+    );
+}

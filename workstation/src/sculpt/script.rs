@@ -93,6 +93,9 @@ pub struct RegionSpec {
     /// Node parameters.
     #[serde(default)]
     pub node: Option<NodeParams>,
+    /// Up-sample around moved points at each stroke end where gaps exceed this (m).
+    #[serde(default)]
+    pub auto_upsample: Option<f64>,
 }
 
 fn default_integrator() -> String {
@@ -318,6 +321,9 @@ impl Script {
             positive("region.band".into(), r.band)?;
             positive("region.dt".into(), r.dt)?;
             positive("region.accel_threshold".into(), r.accel_threshold)?;
+            if let Some(g) = r.auto_upsample {
+                positive("region.auto_upsample".into(), g)?;
+            }
             if !["symplectic_euler", "forward_euler", "backward_euler"]
                 .contains(&r.integrator.as_str())
             {
