@@ -84,7 +84,11 @@ struct FieldData {
     normals: Vec<DVec3>,
     /// Nearest-point fallback over inliers, and the map from its items to point indices.
     nearest: PointIndex,
+    /// Slot of each kd-tree item.
     nearest_ids: Vec<u32>,
+    /// Storage slot of each point: per-point data is kept in Morton (Z-curve) order so the
+    /// fields a query blends sit close together in memory.
+    slot: Vec<u32>,
     grid: SupportGrid,
     refit: Arc<RefitOperator>,
     scale: f64,
@@ -117,6 +121,11 @@ impl GlobalField {
             params.normal_agreement,
             typical,
         );
+        let order = morton_order(points);
+        let mut slot = vec![0u32; n];
+        for (s, &i) in order.iter().enumerate() {
+            slot[i as usize] = s as u32;
+        }
         let c = params.size.pow(3);
         let mut coeffs = vec![0.0; n * c];
         let mut frames = vec![
@@ -136,7 +145,7 @@ impl GlobalField {
                 || (FitScratch::new(params.size), Vec::new(), Vec::new()),
                 |(scratch, hp, hn), (block, (cs, fs))| {
                     for (o, (coef, frame)) in cs.chunks_mut(c).zip(fs.iter_mut()).enumerate() {
-                        let i = block * BLOCK + o;
+                        let i = order[block * BLOCK + o] as usize;
                         hp.clear();
                         hn.clear();
                         for &j in knn.neighbours(i) {
@@ -157,20 +166,31 @@ impl GlobalField {
                     progress.advance(fs.len());
                 },
             );
+        // Everything below is in slot order.
         let support: Vec<f64> = frames
             .iter()
-            .zip(&outlier)
-            .map(|(f, &out)| if out { 0.0 } else { params.support * f.half })
+            .zip(&order)
+            .map(|(f, &i)| {
+                if outlier[i as usize] {
+                    0.0
+                } else {
+                    params.support * f.half
+                }
+            })
             .collect();
-        let inliers: Vec<u32> = (0..n as u32).filter(|&i| !outlier[i as usize]).collect();
+        let inliers: Vec<u32> = (0..n as u32)
+            .filter(|&s| support[s as usize] > 0.0)
+            .collect();
         if inliers.is_empty() {
             return Err(FieldError::AllOutliers);
         }
-        let inlier_points: Vec<DVec3> = inliers.iter().map(|&i| points[i as usize]).collect();
+        let inlier_points: Vec<DVec3> =
+            inliers.iter().map(|&s| frames[s as usize].center).collect();
+        let centers: Vec<DVec3> = frames.iter().map(|f| f.center).collect();
         let mut sup_sorted: Vec<f64> = support.iter().copied().filter(|r| *r > 0.0).collect();
         sup_sorted.sort_by(f64::total_cmp);
         let scale = sup_sorted[sup_sorted.len() / 2];
-        let grid = SupportGrid::new(points, &support, 2.0 * scale);
+        let grid = SupportGrid::new(&centers, &support, 2.0 * scale);
         let refit = RefitOperator::new(params.size, params.size)
             .map_err(|_| FieldError::Param("size must be in 3..=6"))?;
         Ok(Self {
@@ -179,9 +199,10 @@ impl GlobalField {
                 frames,
                 support,
                 coeffs,
-                normals: normals.to_vec(),
+                normals: order.iter().map(|&i| normals[i as usize]).collect(),
                 nearest: PointIndex::new(&inlier_points),
                 nearest_ids: inliers,
+                slot,
                 grid,
                 refit: Arc::new(refit),
                 scale,
@@ -199,7 +220,7 @@ impl GlobalField {
     /// `f(x)` and `∇f(x)`. Allocation-free; finite for finite `x`.
     ///
     /// The covering fields are blended in two groups, split by the sign of their normal's dot
-    /// product with the first one's. When the groups face opposite ways (mean normals with a dot
+    /// product with that of the most central covering support. When the groups face opposite ways (mean normals with a dot
     /// product below `normal_agreement`: the two sides of a thin solid, or of a thin gap, closer
     /// than the supports) averaging them would erase both sheets; instead each group is blended
     /// alone and the two are combined like a CSG of half-spaces: `max` (intersection) when the
@@ -235,24 +256,26 @@ impl GlobalField {
     }
 
     /// Accumulate the blend at `x` over the supports containing it, in two groups split by the
-    /// sign of each field's normal against the first covering field's.
+    /// sign of each field's normal against the most central covering field's.
     #[inline]
     fn blend(&self, x: DVec3) -> [Blend; 2] {
         let d = &*self.inner;
         let size = d.params.size;
         let c = size * size * size;
         let mut groups = [Blend::default(); 2];
-        let mut reference: Option<DVec3> = None;
-        d.grid.for_each_candidate(x, |i| {
+        // The split is relative to the normal of the most central covering support (largest
+        // weight; ties to the lower index), so it does not depend on the storage order.
+        let (mut best, mut n_ref) = ((f64::INFINITY, usize::MAX), DVec3::ZERO);
+        d.grid.for_each_containing(x, |i, _, dist2| {
+            let key = (dist2 / (d.support[i] * d.support[i]), i);
+            if key.0 < best.0 || (key.0 == best.0 && key.1 < best.1) {
+                (best, n_ref) = (key, d.frames[i].axes[2]);
+            }
+        });
+        d.grid.for_each_containing(x, |i, rel, dist2| {
             let r = d.support[i];
             let fr = &d.frames[i];
-            let rel = x - fr.center;
-            let dist2 = rel.length_squared();
-            if dist2 >= r * r {
-                return;
-            }
             let normal = fr.axes[2];
-            let n_ref = *reference.get_or_insert(normal);
             let acc = &mut groups[usize::from(normal.dot(n_ref) < 0.0)];
             let dist = dist2.sqrt();
             let (phi, dphi) = weight(dist / r);
@@ -302,9 +325,7 @@ impl GlobalField {
     pub fn is_covered(&self, x: DVec3) -> bool {
         let d = &*self.inner;
         let mut hit = false;
-        d.grid.for_each_candidate(x, |i| {
-            hit |= (x - d.frames[i].center).length_squared() < d.support[i] * d.support[i];
-        });
+        d.grid.for_each_containing(x, |_, _, _| hit = true);
         hit
     }
 
@@ -335,18 +356,19 @@ impl GlobalField {
 
     /// Frame of local field `i`.
     pub fn frame(&self, i: usize) -> &LocalFrame {
-        &self.inner.frames[i]
+        &self.inner.frames[self.inner.slot[i] as usize]
     }
 
     /// World-unit coefficients of local field `i` (`size³`, flat index `(a·size+b)·size+c`).
     pub fn coefficients(&self, i: usize) -> &[f64] {
         let c = self.inner.params.size.pow(3);
-        &self.inner.coeffs[i * c..(i + 1) * c]
+        let s = self.inner.slot[i] as usize;
+        &self.inner.coeffs[s * c..(s + 1) * c]
     }
 
     /// Support radius of point `i`'s blending weight (0 for an outlier).
     pub fn support_radius(&self, i: usize) -> f64 {
-        self.inner.support[i]
+        self.inner.support[self.inner.slot[i] as usize]
     }
 
     /// The precomputed refit operator (Eq. 4) for this field's spline size, on a grid of
@@ -360,7 +382,7 @@ impl GlobalField {
     pub fn refit_nodes(&self, i: usize) -> impl Iterator<Item = DVec3> + '_ {
         let op = &self.inner.refit;
         let s = op.samples();
-        let frame = &self.inner.frames[i];
+        let frame = self.frame(i);
         (0..s * s * s)
             .map(move |flat| frame.to_world(op.node(flat / (s * s), (flat / s) % s, flat % s)))
     }
@@ -371,9 +393,37 @@ impl GlobalField {
     pub fn refit_local(&mut self, i: usize, samples: &[f64]) {
         let data = Arc::make_mut(&mut self.inner);
         let c = data.params.size.pow(3);
+        let i = data.slot[i] as usize;
         let refit = Arc::clone(&data.refit);
         refit.apply(samples, &mut data.coeffs[i * c..(i + 1) * c]);
     }
+}
+
+/// Point indices sorted along a Morton (Z-order) curve over the bounding box.
+fn morton_order(points: &[DVec3]) -> Vec<u32> {
+    let (lo, hi) = crate::pointset::bounds(points).unwrap_or((DVec3::ZERO, DVec3::ONE));
+    let scale = ((1u64 << 21) - 1) as f64 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    let spread = |v: f64| -> u64 {
+        let mut x = (v.clamp(0.0, ((1u64 << 21) - 1) as f64)) as u64;
+        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+        (x | (x << 2)) & 0x1249_2492_4924_9249
+    };
+    let mut keyed: Vec<(u64, u32)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let q = (*p - lo) * scale;
+            (
+                spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2),
+                i as u32,
+            )
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Running sums of the blend of one group of fields at one point.
@@ -411,6 +461,7 @@ impl Clone for FieldData {
             normals: self.normals.clone(),
             nearest: PointIndex::new(&inlier_points),
             nearest_ids: self.nearest_ids.clone(),
+            slot: self.slot.clone(),
             grid: self.grid.clone(),
             refit: Arc::clone(&self.refit),
             scale: self.scale,

@@ -24,7 +24,16 @@ struct Level {
     cell: f64,
     /// Cell key → range into `items`.
     cells: HashMap<u64, (u32, u32), BuildHasherDefault<MulHasher>>,
-    items: Vec<u32>,
+    /// Supports sorted by cell, with their centre and squared radius inline so the distance
+    /// test reads contiguous memory.
+    items: Vec<Item>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Item {
+    center: DVec3,
+    radius2: f64,
+    id: u32,
 }
 
 impl SupportGrid {
@@ -71,7 +80,14 @@ impl SupportGrid {
                     level.cells.insert(k, (start as u32, end as u32));
                     start = end;
                 }
-                level.items = list.into_iter().map(|(_, i)| i).collect();
+                level.items = list
+                    .into_iter()
+                    .map(|(_, i)| Item {
+                        center: centers[i as usize],
+                        radius2: radius[i as usize] * radius[i as usize],
+                        id: i,
+                    })
+                    .collect();
                 level
             })
             .collect();
@@ -87,10 +103,10 @@ impl SupportGrid {
         self.base
     }
 
-    /// Call `visit(i)` for every stored support whose cell is near `x`: a superset of the
-    /// supports containing `x` (the caller tests the distance). Allocation-free.
+    /// Call `visit(i, x − cᵢ, |x − cᵢ|²)` for every stored support `i` that contains `x`
+    /// (`|x − cᵢ| < rᵢ`). Allocation-free.
     #[inline]
-    pub fn for_each_candidate(&self, x: DVec3, mut visit: impl FnMut(usize)) {
+    pub fn for_each_containing(&self, x: DVec3, mut visit: impl FnMut(usize, DVec3, f64)) {
         let rel = x - self.origin;
         for level in &self.levels {
             if level.items.is_empty() {
@@ -107,8 +123,12 @@ impl SupportGrid {
                     for dx in 0..2 {
                         let k = key([lo.x + dx, lo.y + dy, lo.z + dz]);
                         if let Some(&(s, e)) = level.cells.get(&k) {
-                            for &i in &level.items[s as usize..e as usize] {
-                                visit(i as usize);
+                            for item in &level.items[s as usize..e as usize] {
+                                let rel = x - item.center;
+                                let dist2 = rel.length_squared();
+                                if dist2 < item.radius2 {
+                                    visit(item.id as usize, rel, dist2);
+                                }
                             }
                         }
                     }
