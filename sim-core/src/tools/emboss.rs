@@ -267,3 +267,44 @@ pub fn emboss(
     }
     Ok(moved)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mappings_place_image_coordinates() {
+        let planar = Mapping::Planar {
+            origin: DVec3::ZERO,
+            u_axis: DVec3::X * 2.0,
+            v_axis: DVec3::Y * 4.0,
+        };
+        assert_eq!(planar.uv(DVec3::new(1.0, 1.0, 5.0)), Some((0.5, 0.25)));
+        assert_eq!(planar.uv(DVec3::new(3.0, 1.0, 0.0)), None);
+        let cyl = Mapping::Cylindrical {
+            origin: DVec3::ZERO,
+            axis: DVec3::Z * 2.0,
+            reference: DVec3::X,
+        };
+        let (u, v) = cyl.uv(DVec3::new(0.0, 1.0, 1.0)).unwrap();
+        assert!((u - 0.25).abs() < 1e-12 && (v - 0.5).abs() < 1e-12);
+        assert_eq!(cyl.uv(DVec3::new(1.0, 0.0, -0.1)), None);
+        let sph = Mapping::Spherical {
+            center: DVec3::ZERO,
+            pole: DVec3::Z,
+            reference: DVec3::X,
+        };
+        let (u, v) = sph.uv(DVec3::new(0.0, -3.0, 0.0)).unwrap();
+        assert!((u - 0.75).abs() < 1e-12 && (v - 0.5).abs() < 1e-12);
+        assert_eq!(sph.uv(DVec3::ZERO), None);
+    }
+
+    #[test]
+    fn bilinear_sampling_between_pixel_centres() {
+        let img = GreyImage::new(2, 1, vec![0.0, 1.0]).unwrap();
+        assert_eq!(img.sample(0.25, 0.5), 0.0);
+        assert_eq!(img.sample(0.75, 0.5), 1.0);
+        assert!((img.sample(0.5, 0.5) - 0.5).abs() < 1e-12);
+        assert_eq!(img.sample(-3.0, 9.0), 0.0);
+    }
+}
