@@ -13,9 +13,10 @@
 //! `½ ‖∇²f‖ taylor_radius²` (for a sphere of radius R, `taylor_radius² / 2R`).
 //!
 //! Contract: a point is visited only if it lies in the grid and the field near it changed since
-//! it last moved (`|Δ(x) − Δ_seen| > ε` or `|Ḟ|·Δt > ε`); every other point is left bit-for-bit
-//! unchanged. Results are finite: a step with a non-finite or vanishing gradient is skipped.
-//! No allocation per call once the [`Follower`]'s scratch has grown to the region's point count.
+//! it last moved (`|Δ(x) − Δ_seen| > ε` or `|Ḟ|·Δt > ε`, up to 2ε, see [`Follower`]); every other
+//! point is left bit-for-bit unchanged. Results are finite: a step with a non-finite or
+//! vanishing gradient is skipped. The [`Follower`] reuses its scratch; it allocates only when
+//! it rebuckets (after a stroke, or once points drifted half a block).
 
 use glam::DVec3;
 

@@ -2,10 +2,11 @@
 //!
 //! Contract: only the object being sculpted, and only inside its region box, is simulated: the
 //! region's [`DynamicGrid`] covers the box, its band covers the surface, and per-step work is
-//! O(band nodes + object points inside the box). Static objects keep their fitted fields and are
-//! never touched; points of the sculpted object outside the box stay bit-for-bit unchanged.
-//! [`Scene::step`] either completes or leaves the model unchanged (rollback, see
-//! [`crate::dynamics::Stepper`]); it allocates nothing after warm-up.
+//! O(band nodes + points near nodes whose value changed). Static objects keep their fitted
+//! fields and are never touched; points of the sculpted object outside the box stay bit-for-bit
+//! unchanged. [`Scene::step`] either completes or leaves the model unchanged (rollback, see
+//! [`crate::dynamics::Stepper`]); after warm-up it allocates only when the follower rebuckets
+//! its points (see [`crate::follow::Follower`]).
 
 use std::sync::Arc;
 
