@@ -139,3 +139,52 @@ impl KnnGraph {
         self.distances(i).last().copied().unwrap_or(0.0)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+
+    #[test]
+    fn graph_rows_are_self_then_nearest_others() {
+        // A dense sphere, a far sparse cluster, exact duplicates: self first, then the k − 1
+        // nearest others.
+        let mut pts = crate::sampling::Shape::Sphere { radius: 1.0 }
+            .sample(20_000, 3)
+            .positions;
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        for _ in 0..200 {
+            pts.push(DVec3::new(
+                rng.random_range(-5.0..5.0),
+                rng.random_range(-5.0..5.0),
+                4.0,
+            ));
+        }
+        for i in 0..100 {
+            pts.push(pts[i * 7]);
+        }
+        let index = PointIndex::new(&pts);
+        for k in [2, 8, 20] {
+            let graph = KnnGraph::build(&pts, &index, k);
+            for i in 0..pts.len() {
+                let want: Vec<f64> = index
+                    .nearest_k(pts[i], k + 1)
+                    .into_iter()
+                    .filter(|&(j, _)| j != i)
+                    .take(k - 1)
+                    .map(|(_, d)| d)
+                    .collect();
+                let got = &graph.distances(i)[1..];
+                assert_eq!(graph.neighbours(i)[0] as usize, i);
+                for (g, w) in got.iter().zip(&want) {
+                    assert!(
+                        (g - w).abs() <= 1e-12 * (1.0 + w),
+                        "point {i}, k {k}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+    }
+}
