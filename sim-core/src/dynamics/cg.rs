@@ -92,15 +92,14 @@ pub fn solve_be(
     // Residual norms below ABS_FLOOR are at the edge of subnormal arithmetic: count them as
     // converged (a model that far into its decay is at rest to every physical tolerance).
     const ABS_FLOOR: f64 = 1e-200;
-    let rel = |r: &[f64]| {
-        let norm = dot(r, r).sqrt();
+    let rel_norm = |norm: f64| {
         if norm <= ABS_FLOOR {
             0.0
         } else {
             norm / b_norm
         }
     };
-    let mut residual = rel(r);
+    let mut residual = rel_norm(dot(r, r).sqrt());
     let mut it = 0;
     while it < max_iterations && residual > tolerance {
         apply_be(model, dt, p, ap);
@@ -109,18 +108,21 @@ pub fn solve_be(
             break;
         }
         let alpha = rz / pap;
+        // One fused pass: update x and r, precondition, and accumulate rᵀz and rᵀr.
+        let (mut rz_new, mut rr) = (0.0, 0.0);
         for s in 0..n {
             x[s] += alpha * p[s];
             r[s] -= alpha * ap[s];
             z[s] = r[s] * inv_diag[s];
+            rz_new += r[s] * z[s];
+            rr += r[s] * r[s];
         }
-        let rz_new = dot(r, z);
         let beta = rz_new / rz;
         rz = rz_new;
         for s in 0..n {
             p[s] = z[s] + beta * p[s];
         }
-        residual = rel(r);
+        residual = rel_norm(rr.sqrt());
         it += 1;
     }
     CgOutcome {
