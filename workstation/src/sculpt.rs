@@ -8,6 +8,7 @@ mod ops;
 pub mod script;
 #[cfg(test)]
 mod tests;
+mod validate;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

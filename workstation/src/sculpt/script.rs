@@ -5,9 +5,6 @@
 //! message names the field and its line); [`Script::validate`] then checks values and references
 //! and names the offending field as `op[3].radius: must be positive and finite`.
 
-use std::collections::HashSet;
-
-use glam::DVec3;
 use serde::Deserialize;
 use sim_core::csg::CsgOp;
 use sim_core::dynamics::NodeParams;
@@ -225,30 +222,6 @@ impl std::fmt::Display for ScriptError {
 
 impl std::error::Error for ScriptError {}
 
-fn err(field: impl Into<String>, reason: impl Into<String>) -> ScriptError {
-    ScriptError {
-        field: field.into(),
-        reason: reason.into(),
-    }
-}
-
-fn positive(field: String, x: f64) -> Result<(), ScriptError> {
-    if x.is_finite() && x > 0.0 {
-        Ok(())
-    } else {
-        Err(err(field, format!("must be positive and finite (got {x})")))
-    }
-}
-
-fn finite3(field: String, v: [f64; 3]) -> Result<DVec3, ScriptError> {
-    let d = DVec3::from_array(v);
-    if d.is_finite() {
-        Ok(d)
-    } else {
-        Err(err(field, "must be finite"))
-    }
-}
-
 impl Script {
     /// Parse TOML; serde errors name the field and line.
     pub fn parse(text: &str) -> Result<Self, ScriptError> {
@@ -257,176 +230,13 @@ impl Script {
                 let line = text[..s.start.min(text.len())].matches('\n').count() + 1;
                 format!("line {line}")
             });
-            err(
-                span.unwrap_or_else(|| "script".into()),
-                e.message().to_string(),
-            )
+            ScriptError {
+                field: span.unwrap_or_else(|| "script".into()),
+                reason: e.message().to_string(),
+            }
         })?;
         script.validate()?;
         Ok(script)
-    }
-
-    /// Check values and references.
-    pub fn validate(&self) -> Result<(), ScriptError> {
-        let mut names = HashSet::new();
-        if self.object.is_empty() {
-            return Err(err("object", "at least one [[object]] is required"));
-        }
-        for (i, o) in self.object.iter().enumerate() {
-            let f = |x: &str| format!("object[{i}].{x}");
-            if !names.insert(o.name.clone()) {
-                return Err(err(
-                    f("name"),
-                    format!("duplicate object name `{}`", o.name),
-                ));
-            }
-            finite3(f("offset"), o.offset)?;
-            match (&o.file, &o.generate) {
-                (Some(_), None) => {}
-                (None, Some(g)) => {
-                    if !["sphere", "torus", "plate", "box"].contains(&g.shape.as_str()) {
-                        return Err(err(
-                            f("generate.shape"),
-                            "must be sphere, torus, plate or box",
-                        ));
-                    }
-                    positive(f("generate.size"), g.size)?;
-                    if g.shape != "sphere" {
-                        positive(f("generate.size2"), g.size2)?;
-                    }
-                    if g.points < 50 {
-                        return Err(err(f("generate.points"), "must be at least 50"));
-                    }
-                }
-                _ => return Err(err(f("file"), "give exactly one of `file` and `generate`")),
-            }
-        }
-        let known = |field: String, name: &str, names: &HashSet<String>| {
-            if names.contains(name) {
-                Ok(())
-            } else {
-                Err(err(field, format!("no object named `{name}`")))
-            }
-        };
-        if let Some(r) = &self.region {
-            known("region.object".into(), &r.object, &names)?;
-            let (lo, hi) = (
-                finite3("region.min".into(), r.min)?,
-                finite3("region.max".into(), r.max)?,
-            );
-            if !hi.cmpgt(lo).all() {
-                return Err(err("region.max", "must exceed region.min on every axis"));
-            }
-            positive("region.spacing".into(), r.spacing)?;
-            positive("region.band".into(), r.band)?;
-            positive("region.dt".into(), r.dt)?;
-            positive("region.accel_threshold".into(), r.accel_threshold)?;
-            if let Some(g) = r.auto_upsample {
-                positive("region.auto_upsample".into(), g)?;
-            }
-            if !["symplectic_euler", "forward_euler", "backward_euler"]
-                .contains(&r.integrator.as_str())
-            {
-                return Err(err(
-                    "region.integrator",
-                    "must be symplectic_euler, forward_euler or backward_euler",
-                ));
-            }
-            if let Some(n) = &r.node {
-                n.validate()
-                    .map_err(|e| err("region.node", e.to_string()))?;
-            }
-            let cells = ((hi - lo) / r.spacing).ceil();
-            if cells.x * cells.y * cells.z > 2e7 {
-                return Err(err("region.spacing", "gives more than 2·10⁷ grid nodes"));
-            }
-        }
-        for (i, op) in self.op.iter().enumerate() {
-            let f = |x: &str| format!("op[{i}].{x}");
-            let needs_region = || {
-                if self.region.is_some() {
-                    Ok(())
-                } else {
-                    Err(err(format!("op[{i}]"), "needs a [region]"))
-                }
-            };
-            match op {
-                Op::Rope {
-                    path,
-                    path_end,
-                    radius,
-                    strength,
-                    profile,
-                    table,
-                    sheet,
-                    ..
-                } => {
-                    needs_region()?;
-                    if path.is_empty() {
-                        return Err(err(f("path"), "needs at least one point"));
-                    }
-                    for (k, p) in path.iter().enumerate() {
-                        finite3(f(&format!("path[{k}]")), *p)?;
-                    }
-                    if let Some(end) = path_end
-                        && end.len() != path.len()
-                    {
-                        return Err(err(f("path_end"), "must have as many points as `path`"));
-                    }
-                    positive(f("radius"), *radius)?;
-                    if !strength.is_finite() {
-                        return Err(err(f("strength"), "must be finite"));
-                    }
-                    profile_of(profile, table.as_deref()).map_err(|r| err(f("profile"), r))?;
-                    if let Some(s) = sheet {
-                        finite3(f("sheet"), *s)?;
-                    }
-                }
-                Op::Relax { .. } | Op::EndStroke => needs_region()?,
-                Op::Paint {
-                    object,
-                    radius,
-                    max_radius,
-                    falloff,
-                    ..
-                } => {
-                    known(f("object"), object, &names)?;
-                    positive(f("radius"), *radius)?;
-                    if let Some(m) = max_radius {
-                        positive(f("max_radius"), *m)?;
-                    }
-                    profile_of(falloff, None).map_err(|r| err(f("falloff"), r))?;
-                }
-                Op::Emboss { object, depth, .. } => {
-                    known(f("object"), object, &names)?;
-                    if !depth.is_finite() {
-                        return Err(err(f("depth"), "must be finite"));
-                    }
-                }
-                Op::Csg { a, b, result, .. } => {
-                    known(f("a"), a, &names)?;
-                    known(f("b"), b, &names)?;
-                    if !names.insert(result.clone()) {
-                        return Err(err(
-                            f("result"),
-                            format!("object `{result}` already exists"),
-                        ));
-                    }
-                }
-                Op::Upsample { object, max_gap } => {
-                    known(f("object"), object, &names)?;
-                    positive(f("max_gap"), *max_gap)?;
-                }
-                Op::Downsample {
-                    object,
-                    min_distance,
-                } => {
-                    known(f("object"), object, &names)?;
-                    positive(f("min_distance"), *min_distance)?;
-                }
-            }
-        }
-        Ok(())
     }
 }
 
