@@ -168,9 +168,9 @@ mod tests {
         let index = PointIndex::new(&pts);
         for k in [2, 8, 20] {
             let graph = KnnGraph::build(&pts, &index, k);
-            for i in 0..pts.len() {
+            for (i, p) in pts.iter().enumerate() {
                 let want: Vec<f64> = index
-                    .nearest_k(pts[i], k + 1)
+                    .nearest_k(*p, k + 1)
                     .into_iter()
                     .filter(|&(j, _)| j != i)
                     .take(k - 1)
