@@ -6,33 +6,17 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec3;
+use sim_core::FitParams;
 use sim_core::dynamics::{Integrator, Stepper};
-use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
 use sim_core::sampling::Shape;
 use sim_core::scene::{RegionParams, Scene, SceneObject};
 use sim_core::tools::{Profile, Rope};
-use sim_core::{FitParams, NoProgress};
 
 const R: f64 = 0.05;
 
 fn scene(integrator: Integrator) -> Scene {
     let ps = Shape::Sphere { radius: R }.sample(16_071, 1);
-    let rec = reconstruct(
-        &ps,
-        &FitParams::default(),
-        NormalPolicy::Keep,
-        &mut IgnoreStages,
-        &NoProgress,
-    )
-    .expect("fit");
-    let n = ps.positions.len();
-    let object = SceneObject {
-        name: "sphere".into(),
-        colors: vec![[200; 3]; n],
-        positions: ps.positions,
-        normals: rec.normals,
-        field: rec.field,
-    };
+    let object = SceneObject::fit("sphere", ps, &FitParams::default()).expect("fit");
     let mut scene = Scene::new();
     let id = scene.add(object);
     let h = 2.0 * R / 35.0;

@@ -16,9 +16,12 @@ use crate::dynamics::{
     DynamicGrid, DynamicsError, Integrator, NodeParams, StepError, StepReport, Stepper,
 };
 use crate::field::GlobalField;
+use crate::field::NoProgress;
 use crate::follow::{FollowOptions, FollowReport, Follower, refit_moved};
 use crate::grid::{GridError, GridSpec, ScalarGrid};
-use crate::reconstruct::ReconstructError;
+use crate::local_fit::FitParams;
+use crate::pointset::PointSet;
+use crate::reconstruct::{IgnoreStages, NormalPolicy, ReconstructError, reconstruct};
 use crate::resample::{UpsampleOptions, upsample_at};
 use crate::tools::{Rope, ToolError};
 
@@ -37,6 +40,37 @@ pub struct SceneObject {
     pub colors: Vec<[u8; 3]>,
     /// The fitted field (updated by refits at the end of strokes).
     pub field: GlobalField,
+}
+
+impl SceneObject {
+    /// Colour of points that arrive without one.
+    pub const DEFAULT_COLOR: [u8; 3] = [200, 200, 200];
+
+    /// Fit `points` into an object: given normals are kept (missing ones estimated), missing
+    /// colours become [`SceneObject::DEFAULT_COLOR`].
+    pub fn fit(
+        name: impl Into<String>,
+        points: PointSet,
+        fit: &FitParams,
+    ) -> Result<Self, ReconstructError> {
+        let rec = reconstruct(
+            &points,
+            fit,
+            NormalPolicy::Keep,
+            &mut IgnoreStages,
+            &NoProgress,
+        )?;
+        let n = points.positions.len();
+        Ok(Self {
+            name: name.into(),
+            colors: points
+                .colors
+                .unwrap_or_else(|| vec![Self::DEFAULT_COLOR; n]),
+            positions: points.positions,
+            normals: rec.normals,
+            field: rec.field,
+        })
+    }
 }
 
 /// How a sculpting region is simulated.

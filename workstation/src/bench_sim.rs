@@ -11,13 +11,12 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use glam::DVec3;
+use sim_core::FitParams;
 use sim_core::dynamics::stability::{LimitSearch, measure_limit, predicted_limits};
 use sim_core::dynamics::{Integrator, NodeParams};
-use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
 use sim_core::sampling::Shape;
 use sim_core::scene::{RegionParams, Scene, SceneObject, SculptStage, StepObserver};
 use sim_core::tools::{Profile, Rope};
-use sim_core::{FitParams, NoProgress};
 
 mod report;
 
@@ -101,21 +100,7 @@ pub fn bench_params(spacing: f64, band_cells: f64, follow_every: u32) -> RegionP
 /// The fitted benchmark sphere.
 pub fn sphere_object(points: usize) -> anyhow::Result<SceneObject> {
     let ps = Shape::Sphere { radius: RADIUS }.sample(points, 1);
-    let rec = reconstruct(
-        &ps,
-        &FitParams::default(),
-        NormalPolicy::Keep,
-        &mut IgnoreStages,
-        &NoProgress,
-    )
-    .context("fitting the benchmark sphere")?;
-    Ok(SceneObject {
-        name: "sphere".into(),
-        colors: vec![[200, 200, 200]; ps.positions.len()],
-        positions: ps.positions,
-        normals: rec.normals,
-        field: rec.field,
-    })
+    SceneObject::fit("sphere", ps, &FitParams::default()).context("fitting the benchmark sphere")
 }
 
 fn timed_run(

@@ -19,10 +19,9 @@ use serde::Serialize;
 use sim_core::dynamics::Integrator;
 use sim_core::io::{self, Format};
 use sim_core::mesh::extract_zero_set;
-use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
 use sim_core::sampling::Shape;
 use sim_core::scene::{RegionParams, Scene, SceneObject};
-use sim_core::{FitParams, NoProgress, PointSet};
+use sim_core::{FitParams, PointSet};
 
 use script::{ObjectSpec, RegionSpec, Script};
 
@@ -192,21 +191,7 @@ pub(crate) fn fit_object(
     points: PointSet,
     fit: &FitParams,
 ) -> anyhow::Result<SceneObject> {
-    let rec = reconstruct(
-        &points,
-        fit,
-        NormalPolicy::Keep,
-        &mut IgnoreStages,
-        &NoProgress,
-    )?;
-    let n = points.positions.len();
-    Ok(SceneObject {
-        name,
-        colors: points.colors.unwrap_or_else(|| vec![[200, 200, 200]; n]),
-        positions: points.positions,
-        normals: rec.normals,
-        field: rec.field,
-    })
+    Ok(SceneObject::fit(name, points, fit)?)
 }
 
 pub(crate) fn point_set(o: &SceneObject) -> PointSet {

@@ -2,11 +2,10 @@
 //! (down-sampling, CSG, embossing) and refitting its field, keeping an open region consistent.
 
 use super::{Region, Scene, SceneError};
+use crate::PointSet;
 use crate::local_fit::FitParams;
-use crate::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
 use crate::resample::Insertion;
 use crate::scene::SceneObject;
-use crate::{NoProgress, PointSet};
 
 impl Scene {
     /// Append points to `object` (e.g. up-sampling insertions, colour from the parent point).
@@ -39,19 +38,9 @@ impl Scene {
         if reopen.is_some() {
             self.close_region()?;
         }
-        let rec = reconstruct(
-            &points,
-            fit,
-            NormalPolicy::Keep,
-            &mut IgnoreStages,
-            &NoProgress,
-        )?;
         let obj = &mut self.objects[object];
-        let n = points.positions.len();
-        obj.colors = points.colors.unwrap_or_else(|| vec![[200, 200, 200]; n]);
-        obj.positions = points.positions;
-        obj.normals = rec.normals;
-        obj.field = rec.field;
+        let name = std::mem::take(&mut obj.name);
+        *obj = SceneObject::fit(name, points, fit)?;
         if let Some(((min, max), params)) = reopen {
             self.open_region(object, min, max, params)?;
         }

@@ -38,21 +38,6 @@ pub fn fitted_object(
     n: usize,
     seed: u64,
 ) -> sim_core::scene::SceneObject {
-    use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
     let ps = shape.sample(n, seed);
-    let rec = reconstruct(
-        &ps,
-        &sim_core::FitParams::default(),
-        NormalPolicy::Keep,
-        &mut IgnoreStages,
-        &sim_core::NoProgress,
-    )
-    .unwrap();
-    sim_core::scene::SceneObject {
-        name: "shape".into(),
-        colors: vec![[200, 200, 200]; ps.positions.len()],
-        positions: ps.positions,
-        normals: rec.normals,
-        field: rec.field,
-    }
+    sim_core::scene::SceneObject::fit("shape", ps, &sim_core::FitParams::default()).unwrap()
 }
