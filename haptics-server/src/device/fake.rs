@@ -303,7 +303,7 @@ impl Device for FakeDevice {
             remaining -= h;
         }
         self.last_ns = now_ns.max(self.last_ns);
-        let (_, buttons) = self.params.path.at((now_ns - t0) as f64 * 1e-9);
+        let (_, buttons) = self.params.path.at(now_ns.saturating_sub(t0) as f64 * 1e-9);
         Ok(DeviceSample {
             position: self.x,
             orientation: Quat::IDENTITY,
@@ -346,6 +346,15 @@ mod tests {
             dev.write_force(force).unwrap();
         }
         s
+    }
+
+    #[test]
+    fn a_clock_stepping_back_does_not_panic() {
+        let mut dev = FakeDevice::new(FakeParams::default());
+        dev.read(5_000_000).unwrap();
+        // A `now` before the first read (another time base, a clock stepped back).
+        let s = dev.read(1_000_000).unwrap();
+        assert!(s.position.is_finite());
     }
 
     #[test]
