@@ -47,7 +47,8 @@ impl ServoParams {
 pub enum SessionEvent {
     /// A workstation session is up: arm the output.
     Start,
-    /// New settings from the workstation (already validated).
+    /// New settings from the workstation (already validated); the next `Start` restores the
+    /// server's own.
     Config(Config),
     /// Latch (`true`) or release the emergency stop.
     EmergencyStop(bool),
@@ -69,6 +70,8 @@ pub struct TickOutput {
 #[derive(Debug, Clone)]
 pub struct ServoCore {
     params: ServoParams,
+    /// The server's own settings: every session starts from them (a `Config` lasts one session).
+    base: ServoParams,
     renderer: ModelRenderer,
     command: Option<(ForceCommand, u64)>,
     smoothed: Vec3,
@@ -83,6 +86,7 @@ impl ServoCore {
         Self {
             safety: Safety::new(params.safety, params.period_ns()),
             params,
+            base: params,
             renderer: ModelRenderer::new(),
             command: None,
             smoothed: Vec3::ZERO,
@@ -96,6 +100,8 @@ impl ServoCore {
         match event {
             SessionEvent::Start => {
                 self.session_up = true;
+                self.params = self.base;
+                self.safety.set_params(self.base.safety);
                 self.command = None;
                 self.smoothed = Vec3::ZERO;
                 self.renderer.reset();

@@ -296,3 +296,28 @@ fn session_end_drops_output_and_same_inputs_give_same_outputs() {
     assert_eq!(b, Vec3::ZERO);
     assert_eq!(go(), (a, b));
 }
+
+#[test]
+fn a_sessions_config_does_not_outlive_it() {
+    // Session A stretches the watchdog to 1 s and turns smoothing on, then ends.
+    let (mut core, mut t) = engaged(Vec3::X);
+    core.on_event(
+        t,
+        SessionEvent::Config(Config {
+            smoothing_alpha: 0.5,
+            watchdog_fade_start_us: 900_000,
+            watchdog_zero_us: 1_000_000,
+            force_limit_n: 3.3,
+        }),
+    );
+    core.on_event(t, SessionEvent::End);
+    run(&mut core, &mut t, 50, None, at(0.0));
+    // Session B starts with the server's own settings: its watchdog zeroes force at 30 ms.
+    core.on_event(t, SessionEvent::Start);
+    assert_eq!(*core.safety().params(), params().safety);
+    run(&mut core, &mut t, 300, Some(constant(Vec3::ZERO)), at(0.0));
+    assert_eq!(core.safety().stage(), Stage::Engaged);
+    let f = run(&mut core, &mut t, 100, Some(constant(Vec3::X)), at(0.0));
+    assert!((f.x - 1.0).abs() < 1e-6, "{f}");
+    assert_eq!(run(&mut core, &mut t, 30, None, at(0.0)), Vec3::ZERO);
+}
