@@ -15,7 +15,7 @@ use glam::Vec3;
 use protocol::control::Config;
 use protocol::{CursorSample, ForceCommand, ModelKind, ModelRenderer};
 
-use super::safety::{Safety, SafetyOutcome, SafetyParams};
+use super::safety::{Safety, SafetyOutcome, SafetyParams, Stage};
 use crate::device::DeviceSample;
 
 /// Servo parameters.
@@ -164,7 +164,14 @@ impl ServoCore {
         } else {
             rendered
         };
-        let safety = self.safety.apply(now_ns, self.smoothed, since);
+        // The gate engages on the commanded force too: smoothing must not hide a large one.
+        let wanted =
+            if self.safety.stage() == Stage::Armed && rendered.length() > self.smoothed.length() {
+                rendered
+            } else {
+                self.smoothed
+            };
+        let safety = self.safety.apply(now_ns, wanted, since);
         let cursor = CursorSample {
             position: sample.position,
             orientation: sample.orientation,

@@ -321,3 +321,28 @@ fn a_sessions_config_does_not_outlive_it() {
     assert!((f.x - 1.0).abs() < 1e-6, "{f}");
     assert_eq!(run(&mut core, &mut t, 30, None, at(0.0)), Vec3::ZERO);
 }
+
+#[test]
+fn smoothing_does_not_hide_a_large_command_from_the_engage_gate() {
+    let mut core = ServoCore::new(params());
+    let mut t = 0;
+    core.on_event(t, SessionEvent::Start);
+    core.on_event(
+        t,
+        SessionEvent::Config(Config {
+            smoothing_alpha: 0.9,
+            ..Config::DEFAULT
+        }),
+    );
+    // The stylus is held deep in a wall: 3 N commanded. The first smoothed value is 0.3 N,
+    // below the 0.5 N threshold, but the command itself is not small: stay armed.
+    let f = run(
+        &mut core,
+        &mut t,
+        50,
+        Some(constant(Vec3::new(3.0, 0.0, 0.0))),
+        at(0.0),
+    );
+    assert_eq!(f, Vec3::ZERO);
+    assert_eq!(core.safety().stage(), Stage::Armed);
+}
