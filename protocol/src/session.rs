@@ -149,6 +149,12 @@ impl Inbound {
         self.tracker.stats()
     }
 
+    /// The newest sequence accepted so far (a packet accepted with an older one arrived late,
+    /// after a newer one).
+    pub fn newest_sequence(&self) -> Option<u32> {
+        self.tracker.newest()
+    }
+
     /// The session this endpoint accepts.
     pub fn session(&self) -> u32 {
         self.session

@@ -9,7 +9,8 @@
 //! or when nothing authentic arrived for `idle_timeout` (the workstation vanished). Ending
 //! sends [`ServoMsg::End`] (output falls to zero) and frees the slot for the next client.
 //! Hot-path packets pass [`protocol::Inbound`] (MAC on UDP, session, replay window, ranges);
-//! only accepted `ForceCommand`s reach the servo ring, rejects are counted by reason.
+//! only accepted `ForceCommand`s reach the servo ring (not one that arrived after a newer one),
+//! rejects are counted by reason.
 
 pub mod quic;
 pub mod session;
@@ -146,8 +147,8 @@ impl Shared {
     /// Returns whether it was accepted.
     pub fn accept_hot(&self, hot: &HotState, datagram: &[u8]) -> bool {
         let now = self.clock.now_ns();
-        let result = match hot.inbound.lock() {
-            Ok(mut inbound) => inbound.accept(datagram),
+        let (result, newest) = match hot.inbound.lock() {
+            Ok(mut inbound) => (inbound.accept(datagram), inbound.newest_sequence()),
             Err(_) => return false,
         };
         match result {
@@ -155,6 +156,8 @@ impl Shared {
                 hot.packets_in.fetch_add(1, Ordering::Relaxed);
                 hot.last_activity_ns.store(now, Ordering::Release);
                 match packet.body {
+                    // A command that arrived after a newer one is superseded: counted, not applied.
+                    Body::Force(_) if newest != Some(packet.sequence) => true,
                     Body::Force(cmd) => {
                         if let Ok(mut link) = self.link.lock() {
                             // Drained every tick; full only if the servo thread is stuck.
@@ -264,5 +267,55 @@ impl HotState {
             }
             _ => false,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use protocol::packet::MAX_PACKET_BYTES;
+    use protocol::{ForceCommand, Outbound};
+
+    #[test]
+    fn a_reordered_older_command_does_not_replace_the_newer_one() {
+        let (commands, mut command_rx) = rtrb::RingBuffer::new(8);
+        let (events, _event_rx) = rtrb::RingBuffer::new(8);
+        let link = ServoLink {
+            commands,
+            events,
+            stats: Arc::default(),
+        };
+        let shared = Shared::new(
+            MonoClock::new(),
+            link,
+            crate::device::DeviceInfo::phantom_class("test"),
+            1000,
+            3.3,
+            NetSettings::default(),
+        );
+        let key = SessionKey::from_bytes([7; 32]);
+        let hot = shared.claim(Some(key.clone())).unwrap();
+        let mut out = Outbound::new(hot.session, Some(key));
+        let command = |x: f32| ForceCommand {
+            force: Vec3::new(x, 0.0, 0.0),
+            torque: None,
+            answers_sequence: 0,
+            answers_timestamp_ns: 0,
+            model: Default::default(),
+        };
+        let (mut older, mut newer) = ([0u8; MAX_PACKET_BYTES], [0u8; MAX_PACKET_BYTES]);
+        let n_older = out.encode(1, Body::Force(command(0.1)), &mut older);
+        let n_newer = out.encode(2, Body::Force(command(0.2)), &mut newer);
+        // The newer packet overtakes the older one on the network.
+        assert!(shared.accept_hot(&hot, &newer[..n_newer]));
+        shared.accept_hot(&hot, &older[..n_older]);
+        let mut last = None;
+        while let Ok((cmd, _)) = command_rx.pop() {
+            last = Some(cmd.force.x);
+        }
+        assert_eq!(last, Some(0.2), "the servo must keep the newest command");
+        let stats = shared.stats(Some(&hot));
+        assert_eq!(stats.force_sequence.reordered, 1);
     }
 }
