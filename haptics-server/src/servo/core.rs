@@ -27,7 +27,8 @@ pub struct ServoParams {
     pub safety: SafetyParams,
     /// Smoothing `α` in `[0, 1)`; 0 = off.
     pub smoothing_alpha: f32,
-    /// The device's force limit, N: `Config.force_limit_n` can only lower the limit below this.
+    /// The device's force limit, N: `Config.force_limit_n` can only lower the limit below this
+    /// (and below `safety.max_force_n`, the server's own).
     pub device_max_force_n: f32,
     /// Largest stiffness rendered, N/m: local models are clamped to it.
     pub max_stiffness_n_per_m: f32,
@@ -120,7 +121,10 @@ impl ServoCore {
                 let mut s = *self.safety.params();
                 s.watchdog_fade_start_ns = u64::from(c.watchdog_fade_start_us) * 1_000;
                 s.watchdog_zero_ns = u64::from(c.watchdog_zero_us) * 1_000;
-                s.max_force_n = c.force_limit_n.min(self.params.device_max_force_n);
+                s.max_force_n = c
+                    .force_limit_n
+                    .min(self.base.safety.max_force_n)
+                    .min(self.params.device_max_force_n);
                 self.safety.set_params(s);
             }
         }

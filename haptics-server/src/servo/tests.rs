@@ -346,3 +346,30 @@ fn smoothing_does_not_hide_a_large_command_from_the_engage_gate() {
     assert_eq!(f, Vec3::ZERO);
     assert_eq!(core.safety().stage(), Stage::Armed);
 }
+
+#[test]
+fn config_cannot_raise_the_clamp_above_the_servers_own_limit() {
+    // The operator capped output at 1 N on a 3.3 N device (Welcome advertises 1 N).
+    let mut p = params();
+    p.safety.max_force_n = 1.0;
+    let mut core = ServoCore::new(p);
+    let mut t = 0;
+    core.on_event(t, SessionEvent::Start);
+    run(&mut core, &mut t, 300, Some(constant(Vec3::ZERO)), at(0.0));
+    assert_eq!(core.safety().stage(), Stage::Engaged);
+    core.on_event(
+        t,
+        SessionEvent::Config(Config {
+            force_limit_n: 50.0,
+            ..Config::DEFAULT
+        }),
+    );
+    let f = run(
+        &mut core,
+        &mut t,
+        50,
+        Some(constant(Vec3::X * 3.0)),
+        at(0.0),
+    );
+    assert!((f.x - 1.0).abs() < 1e-6, "{f}");
+}
