@@ -130,11 +130,25 @@ impl Shared {
         }
     }
 
-    fn servo(&self, msg: ServoMsg) {
-        if let Ok(mut link) = self.link.lock()
-            && link.events.push(msg).is_err()
-        {
-            tracing::error!("servo event ring full; event dropped");
+    /// Hand `msg` to the servo thread. The ring is drained every tick, so when a burst (say,
+    /// of `Config`s) has filled it, wait for room instead of dropping the message: an
+    /// emergency stop or an `End` must not be lost. Gives up after 1 s (no servo thread).
+    fn servo(&self, mut msg: ServoMsg) {
+        let give_up = std::time::Instant::now() + Duration::from_secs(1);
+        loop {
+            let Ok(mut link) = self.link.lock() else {
+                return;
+            };
+            match link.events.push(msg) {
+                Ok(()) => return,
+                Err(rtrb::PushError::Full(m)) => msg = m,
+            }
+            drop(link);
+            if std::time::Instant::now() >= give_up {
+                tracing::error!("servo event ring full for 1 s; event dropped");
+                return;
+            }
+            std::thread::sleep(Duration::from_micros(200));
         }
     }
 

@@ -161,3 +161,48 @@ async fn udp_emergency_stop() {
 async fn quic_emergency_stop() {
     emergency_stop(TransportKind::Quic).await;
 }
+
+/// A burst of `Config`s (a UI slider dragged) right before an emergency stop: the stop must
+/// still reach the servo, not be dropped on a full event ring.
+async fn emergency_stop_after_a_config_burst(kind: TransportKind) {
+    let (server, monitor) = server(kind, Duration::from_secs(5));
+    let mut client = connect(&server, kind).await;
+    let f = Vec3::new(0.0, 0.0, 0.4);
+    let at_device = |_: &protocol::CursorSample| (monitor.last_force() - f).length() < 1e-5;
+    stream_until(
+        &mut client,
+        "force applied",
+        |_| constant(f, (0, 0)),
+        at_device,
+    )
+    .await;
+    let mut burst = Vec::new();
+    for _ in 0..1000 {
+        burst.extend(Control::Config(protocol::control::Config::DEFAULT).to_frame());
+    }
+    burst.extend(Control::EmergencyStop(EmergencyStop { engage: true }).to_frame());
+    for _ in 0..1000 {
+        burst.extend(Control::Config(protocol::control::Config::DEFAULT).to_frame());
+    }
+    client.control.send_raw(&burst).await.unwrap();
+    let mut c = stream(&mut client, 1, |_| constant(f, (0, 0))).await;
+    for _ in 0..3000 {
+        if c.estop {
+            break;
+        }
+        c = stream(&mut client, 1, |_| constant(f, (0, 0))).await;
+    }
+    assert!(c.estop && !c.engaged, "the emergency stop was lost");
+    stream(&mut client, 50, |_| constant(f, (0, 0))).await;
+    assert_eq!(monitor.last_force(), Vec3::ZERO);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn udp_emergency_stop_after_a_config_burst() {
+    emergency_stop_after_a_config_burst(TransportKind::Udp).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn quic_emergency_stop_after_a_config_burst() {
+    emergency_stop_after_a_config_burst(TransportKind::Quic).await;
+}
