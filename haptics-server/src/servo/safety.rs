@@ -139,9 +139,11 @@ impl Safety {
     }
 
     /// Latch (`true`) or release the emergency stop; release re-arms, output ramps in again.
+    /// Releasing a stop that is not latched changes nothing.
     pub fn emergency_stop(&mut self, engage: bool, session_up: bool) {
         self.stage = match (engage, session_up) {
             (true, _) => Stage::Stopped,
+            (false, _) if self.stage != Stage::Stopped => self.stage,
             (false, true) => Stage::Armed,
             (false, false) => Stage::Idle,
         };

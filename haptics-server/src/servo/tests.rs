@@ -373,3 +373,12 @@ fn config_cannot_raise_the_clamp_above_the_servers_own_limit() {
     );
     assert!((f.x - 1.0).abs() < 1e-6, "{f}");
 }
+
+#[test]
+fn releasing_an_emergency_stop_that_is_not_latched_changes_nothing() {
+    let (mut core, mut t) = engaged(Vec3::X);
+    core.on_event(t, SessionEvent::EmergencyStop(false));
+    assert_eq!(core.safety().stage(), Stage::Engaged);
+    let f = run(&mut core, &mut t, 5, Some(constant(Vec3::X)), at(0.0));
+    assert!((f.x - 1.0).abs() < 1e-6, "{f}");
+}
