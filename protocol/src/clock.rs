@@ -132,7 +132,7 @@ impl ClockEstimator {
             offset_ns: sample.offset_ns(),
             rtt_ns: rtt,
             // +1 covers the integer halving in `offset_ns`.
-            uncertainty_ns: rtt / 2 + 1 + drift,
+            uncertainty_ns: (rtt / 2).saturating_add(1).saturating_add(drift),
             samples: count,
         })
     }
@@ -161,6 +161,69 @@ mod tests {
         let est = e.estimate().unwrap();
         assert_eq!(est.offset_ns, 5_000_000);
         assert_eq!(est.rtt_ns, 200_000);
+    }
+
+    #[test]
+    fn absurd_timestamps_saturate_instead_of_overflowing() {
+        let mut e = ClockEstimator::new(1e6);
+        // A huge round trip, then a sample from the far future that ages it by ~u64::MAX.
+        e.add(ClockSample {
+            t0_ns: 0,
+            t1_ns: 0,
+            t2_ns: 0,
+            t3_ns: u64::MAX - 1,
+        })
+        .unwrap();
+        e.add(ClockSample {
+            t0_ns: u64::MAX,
+            t1_ns: 0,
+            t2_ns: 0,
+            t3_ns: u64::MAX,
+        })
+        .unwrap();
+        let est = e.estimate().unwrap();
+        assert_eq!(est.rtt_ns, 0);
+        assert_eq!(est.uncertainty_ns, 1);
+        let mut e = ClockEstimator::new(1e6);
+        e.add(ClockSample {
+            t0_ns: 0,
+            t1_ns: 0,
+            t2_ns: 0,
+            t3_ns: u64::MAX,
+        })
+        .unwrap();
+        e.add(ClockSample {
+            t0_ns: 0,
+            t1_ns: 0,
+            t2_ns: 0,
+            t3_ns: u64::MAX,
+        })
+        .unwrap();
+        assert_eq!(e.estimate().unwrap().uncertainty_ns, u64::MAX / 2 + 1);
+        let mut e = ClockEstimator::new(1e6);
+        e.add(ClockSample {
+            t0_ns: 0,
+            t1_ns: 0,
+            t2_ns: 0,
+            t3_ns: u64::MAX / 2,
+        })
+        .unwrap();
+        e.add(ClockSample {
+            t0_ns: u64::MAX - 10,
+            t1_ns: 0,
+            t2_ns: 0,
+            t3_ns: u64::MAX,
+        })
+        .unwrap();
+        e.add(ClockSample {
+            t0_ns: 0,
+            t1_ns: 0,
+            t2_ns: 0,
+            t3_ns: 0,
+        })
+        .unwrap();
+        // Best sample (rtt 0) is aged u64::MAX at 1e6 ppm: the bound saturates.
+        assert_eq!(e.estimate().unwrap().uncertainty_ns, u64::MAX);
     }
 
     #[test]

@@ -147,7 +147,8 @@ pub struct ForceCommand {
 /// What kind of local model a [`ForceCommand`] carries.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum ModelKind {
-    /// No model: the server holds `force` constant (then fades it out after `lifetime_us`).
+    /// No model: the server holds `force` until the next command (`lifetime_us` unused); its
+    /// watchdog fades the force out when commands stop.
     #[default]
     None,
     /// Unilateral plane through `point` with outward unit `normal`: push-out force
