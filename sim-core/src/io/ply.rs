@@ -183,7 +183,28 @@ pub fn read_ply(bytes: &[u8]) -> Result<Loaded, IoError> {
         );
         let mut vals = vec![0.0; el.props.len()];
         let mut poly: Vec<u32> = Vec::new();
-        for index in 0..el.count {
+        // Binary records are read byte by byte, so the header's count is only trusted as far as
+        // the data can hold it: a record takes at least the bytes of its scalars and list
+        // counts, and an element without properties has nothing to read (otherwise a count of
+        // 10¹² would loop for hours over an empty record).
+        let mut records = el.count;
+        if enc != Encoding::Ascii {
+            let min_record: usize = el.props.iter().map(|p| p.list.unwrap_or(p.ty).size()).sum();
+            if min_record == 0 {
+                records = 0;
+            } else if el.count > (d.bytes.len() - d.pos) / min_record {
+                return Err(IoError::Record {
+                    element: el.name.clone(),
+                    index: (d.bytes.len() - d.pos) / min_record,
+                    reason: format!(
+                        "the header claims {} records but only {} bytes of data remain",
+                        el.count,
+                        d.bytes.len() - d.pos
+                    ),
+                });
+            }
+        }
+        for index in 0..records {
             let err = |reason: String, d: &Data<'_>| match enc {
                 Encoding::Ascii => IoError::Line {
                     line: header_lines + d.line,

@@ -7,3 +7,4 @@ mod hard_cases;
 mod io_formats;
 mod meshing;
 mod real_scan;
+mod untrusted_input;
