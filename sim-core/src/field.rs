@@ -302,13 +302,34 @@ impl GlobalField {
     /// no support covers `x`).
     pub fn nearest_signed_distance(&self, x: DVec3) -> (f64, DVec3) {
         let d = &*self.inner;
-        let (item, _) = d.nearest.nearest(x);
+        // The index measures squared distances, which overflow beyond ~1e154: search from x
+        // pulled in along its ray instead (as far out, the nearest point is the same).
+        // (The index must not see NaN or infinity either.)
+        let q = DVec3::from_array(x.to_array().map(|c| {
+            if c.is_nan() {
+                0.0
+            } else {
+                c.clamp(-f64::MAX, f64::MAX)
+            }
+        }));
+        let far = q.abs().max_element();
+        let q = if far > FAR_QUERY {
+            q * (FAR_QUERY / far)
+        } else {
+            q
+        };
+        let (item, _) = d.nearest.nearest(q);
         let i = d.nearest_ids[item] as usize;
         let rel = x - d.frames[i].center;
         let n = d.normals[i];
-        let sign = if rel.dot(n) < 0.0 { -1.0 } else { 1.0 };
         // Scaled length: finite even where |rel|² overflows.
         let m = rel.abs().max_element();
+        let side = if m > 0.0 && m.is_finite() {
+            (rel / m).dot(n)
+        } else {
+            rel.dot(n)
+        };
+        let sign = if side < 0.0 { -1.0 } else { 1.0 };
         let len = if m > 0.0 && m.is_finite() {
             m * (rel / m).length()
         } else {
@@ -316,6 +337,11 @@ impl GlobalField {
         };
         if len > 0.0 && len.is_finite() {
             (sign * len, rel * (sign / len))
+        } else if m > 0.0 && !rel.is_nan() {
+            // |rel| overflows (x near ±f64::MAX, or infinite): the largest component is a
+            // finite lower bound of the distance; 0 would claim that x lies on the surface.
+            let dir = (rel / m).try_normalize().map_or(n, |d| d * sign);
+            (sign * m.min(f64::MAX), dir)
         } else {
             (0.0, n)
         }
@@ -398,6 +424,10 @@ impl GlobalField {
         refit.apply(samples, &mut data.coeffs[i * c..(i + 1) * c]);
     }
 }
+
+/// Beyond this coordinate magnitude the nearest-point search runs from a point pulled in along
+/// the query's ray (squared distances overflow past ~1e154).
+const FAR_QUERY: f64 = 1e150;
 
 /// Point indices sorted along a Morton (Z-order) curve over the bounding box.
 fn morton_order(points: &[DVec3]) -> Vec<u32> {

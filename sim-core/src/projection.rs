@@ -3,6 +3,7 @@
 //!
 //! Contract: at most `max_iterations` field evaluations, no allocation, a finite result for any
 //! finite start; when it does not converge the last iterate is returned with `converged: false`.
+//! A non-finite start is returned unchanged with `converged: false`.
 
 use glam::DVec3;
 
@@ -55,6 +56,15 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
     let max_step = opt.max_step * field.scale();
     let mut p = x;
     let (mut f, mut g) = field.value_and_gradient(p);
+    if !x.is_finite() {
+        // No point of the zero set is nearer a NaN or infinite start than another.
+        return Projection {
+            point: x,
+            value: f,
+            iterations: 0,
+            converged: false,
+        };
+    }
     for it in 0..opt.max_iterations {
         if f.abs() <= tol {
             return Projection {
@@ -70,7 +80,10 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
         }
         let mut step = g * (f / g2);
         let len = step.length();
-        if len > max_step {
+        if !len.is_finite() {
+            // f/‖∇f‖² overflowed (|f| near f64::MAX, far from the surface): a full step along ∇f.
+            step = g * (max_step.copysign(f) / g2.sqrt());
+        } else if len > max_step {
             step *= max_step / len;
         }
         let q = p - step;
