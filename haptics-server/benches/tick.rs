@@ -17,6 +17,7 @@ fn params() -> ServoParams {
         smoothing_alpha: 0.5,
         device_max_force_n: 3.3,
         max_stiffness_n_per_m: 700.0,
+        max_damping_n_s_per_m: 5.0,
         estop_button_mask: 0,
     }
 }

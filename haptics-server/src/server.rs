@@ -61,6 +61,7 @@ impl ServerOptions {
                     smoothing_alpha: 0.0,
                     device_max_force_n: f32::INFINITY,
                     max_stiffness_n_per_m: f32::INFINITY,
+                    max_damping_n_s_per_m: f32::INFINITY,
                     estop_button_mask: 0,
                 },
                 rt: RtRequest {

@@ -131,6 +131,7 @@ pub fn driver_config(cfg: &ServerConfig) -> DriverConfig {
             smoothing_alpha: f.smoothing_alpha,
             device_max_force_n: f.max_force_n,
             max_stiffness_n_per_m: f.max_stiffness_n_per_m,
+            max_damping_n_s_per_m: f.max_damping_n_s_per_m,
             estop_button_mask: s.estop_button_mask,
         },
         rt: RtRequest {

@@ -72,6 +72,8 @@ pub struct SafetySection {
     pub max_force_n: f32,
     /// Largest stiffness rendered, N/m (the device's own limit also applies).
     pub max_stiffness_n_per_m: f32,
+    /// Largest damping rendered, N·s/m.
+    pub max_damping_n_s_per_m: f32,
     /// Output engages only when the commanded force is at most this, N.
     pub engage_threshold_n: f32,
     /// Ramp-in time, ms.
@@ -91,6 +93,7 @@ impl Default for SafetySection {
         Self {
             max_force_n: 3.3,
             max_stiffness_n_per_m: 700.0,
+            max_damping_n_s_per_m: 5.0,
             engage_threshold_n: 0.5,
             ramp_ms: 200,
             slew_n_per_s: 200.0,
@@ -218,6 +221,9 @@ impl ServerConfig {
         }
         if !finite_nonneg(f.max_stiffness_n_per_m) || f.max_stiffness_n_per_m > 100_000.0 {
             invalid("safety.max_stiffness_n_per_m", "must be in 0 … 100000 N/m")?;
+        }
+        if !finite_nonneg(f.max_damping_n_s_per_m) || f.max_damping_n_s_per_m > 1_000.0 {
+            invalid("safety.max_damping_n_s_per_m", "must be in 0 … 1000 N·s/m")?;
         }
         if !finite_nonneg(f.engage_threshold_n) {
             invalid("safety.engage_threshold_n", "must be finite and >= 0")?;

@@ -32,6 +32,9 @@ pub struct ServoParams {
     pub device_max_force_n: f32,
     /// Largest stiffness rendered, N/m: local models are clamped to it.
     pub max_stiffness_n_per_m: f32,
+    /// Largest damping rendered, N·s/m: local models are clamped to it (virtual damping far
+    /// above what the device's mass and the servo period support makes the stylus buzz).
+    pub max_damping_n_s_per_m: f32,
     /// Buttons that latch the emergency stop while pressed (0 = none).
     pub estop_button_mask: u16,
 }
@@ -131,13 +134,14 @@ impl ServoCore {
     }
 
     /// A validated force command arrived at `arrived_ns`; it replaces the previous one.
-    /// Ignored without a session. Stiffness is clamped to the device's limit here.
+    /// Ignored without a session. Stiffness and damping are clamped to their limits here.
     pub fn on_command(&mut self, arrived_ns: u64, mut command: ForceCommand) {
         if !self.session_up {
             return;
         }
         let model = &mut command.model;
         model.stiffness = model.stiffness.min(self.params.max_stiffness_n_per_m);
+        model.damping = model.damping.min(self.params.max_damping_n_s_per_m);
         if self.command.is_none_or(|(c, _)| c.model.kind != model.kind)
             || model.kind == ModelKind::None
         {

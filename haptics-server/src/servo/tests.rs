@@ -17,6 +17,7 @@ fn params() -> ServoParams {
         smoothing_alpha: 0.0,
         device_max_force_n: 3.3,
         max_stiffness_n_per_m: 700.0,
+        max_damping_n_s_per_m: 5.0,
         estop_button_mask: 0b10,
     }
 }
@@ -186,6 +187,22 @@ fn local_model_force_is_stiffness_times_penetration() {
     // Stiffness beyond the device's 700 N/m is clamped: 2 mm → 1.4 N, not 10 N.
     let f = run(&mut core, &mut t, 50, Some(plane(5_000.0)), at(-0.002));
     assert!((f.y - 1.4).abs() < 1e-5, "{f}");
+}
+
+#[test]
+fn damping_is_clamped_to_the_servers_limit() {
+    let (mut core, mut t) = engaged(Vec3::ZERO);
+    // An anchor at the cursor with b = 500 N·s/m and the stylus moving at 0.1 m/s along x:
+    // unclamped that is 50 N of pure damping; the 5 N·s/m cap leaves 0.5 N against the motion.
+    let mut cmd = plane(0.0);
+    cmd.model.kind = ModelKind::Anchor;
+    cmd.model.damping = 500.0;
+    let moving = DeviceSample {
+        velocity: Vec3::new(0.1, 0.0, 0.0),
+        ..at(0.0)
+    };
+    let f = run(&mut core, &mut t, 50, Some(cmd), moving);
+    assert!((f - Vec3::new(-0.5, 0.0, 0.0)).length() < 1e-5, "{f}");
 }
 
 #[test]
