@@ -109,3 +109,59 @@ fn a_small_session_writes_points_and_meshes() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn non_finite_and_inconsistent_values_are_caught_before_any_work() {
+    // Each used to pass `Script::validate` and fail (or silently do nothing) only when the op
+    // ran, after every object had been fitted, with a message naming no op field.
+    let rope = "[[op]]\nkind = \"rope\"\npath = [[0.0, 0.0, 0.05]]\nradius = 0.01\nstrength = 1.0\nprofile = \"gaussian\"\nsteps = 2\n";
+    let paint = "[[op]]\nkind = \"paint\"\nobject = \"ball\"\ncolor = [1, 2, 3]\nradius = 0.01\n";
+    let cases = [
+        (
+            format!("{rope}path_end = [[nan, 0.0, 0.05]]\n"),
+            vec!["op[0].path_end[0]", "finite"],
+        ),
+        (
+            format!("{rope}path_end = [[inf, 0.0, 0.05]]\n"),
+            vec!["op[0].path_end[0]", "finite"],
+        ),
+        (
+            format!("{paint}center = [nan, 0.0, 0.0]\n"),
+            vec!["op[0].center", "finite"],
+        ),
+        (
+            format!("{paint}center = [0.0, 0.0, 0.0]\nforce = inf\n"),
+            vec!["op[0].force", "finite"],
+        ),
+        (
+            format!("{paint}center = [0.0, 0.0, 0.0]\nradius_per_newton = -1.0\n"),
+            vec!["op[0].radius_per_newton"],
+        ),
+        (
+            format!("{paint}center = [0.0, 0.0, 0.0]\nradius_per_newton = nan\n"),
+            vec!["op[0].radius_per_newton"],
+        ),
+    ];
+    for (tail, needles) in cases {
+        let msg = error_of(&tail);
+        for n in needles {
+            assert!(msg.contains(n), "`{msg}` lacks `{n}` for:\n{tail}");
+        }
+    }
+    // Generated shapes that sample no valid surface (as `workstation fit` rejects them).
+    for (generate, needle) in [
+        (
+            "{ shape = \"torus\", size = 0.05, size2 = 0.08, points = 800 }",
+            "object[1].generate.size2",
+        ),
+        (
+            "{ shape = \"box\", size = 0.05, size2 = 0.08, points = 800 }",
+            "object[1].generate.size2",
+        ),
+    ] {
+        let msg = error_of(&format!(
+            "[[object]]\nname = \"b\"\ngenerate = {generate}\n"
+        ));
+        assert!(msg.contains(needle), "`{msg}` lacks `{needle}`");
+    }
+}

@@ -59,6 +59,18 @@ impl Script {
                     if g.shape != "sphere" {
                         positive(f("generate.size2"), g.size2)?;
                     }
+                    if g.shape == "torus" && g.size2 >= g.size {
+                        return Err(err(
+                            f("generate.size2"),
+                            "the torus tube radius must be smaller than `size`",
+                        ));
+                    }
+                    if g.shape == "box" && g.size2 > g.size {
+                        return Err(err(
+                            f("generate.size2"),
+                            "the box rounding must not exceed the half size `size`",
+                        ));
+                    }
                     if g.points < 50 {
                         return Err(err(f("generate.points"), "must be at least 50"));
                     }
@@ -133,10 +145,13 @@ impl Script {
                     for (k, p) in path.iter().enumerate() {
                         finite3(f(&format!("path[{k}]")), *p)?;
                     }
-                    if let Some(end) = path_end
-                        && end.len() != path.len()
-                    {
-                        return Err(err(f("path_end"), "must have as many points as `path`"));
+                    if let Some(end) = path_end {
+                        if end.len() != path.len() {
+                            return Err(err(f("path_end"), "must have as many points as `path`"));
+                        }
+                        for (k, p) in end.iter().enumerate() {
+                            finite3(f(&format!("path_end[{k}]")), *p)?;
+                        }
                     }
                     positive(f("radius"), *radius)?;
                     if !strength.is_finite() {
@@ -150,13 +165,26 @@ impl Script {
                 Op::Relax { .. } | Op::EndStroke => needs_region()?,
                 Op::Paint {
                     object,
+                    center,
+                    force,
                     radius,
+                    radius_per_newton,
                     max_radius,
                     falloff,
                     ..
                 } => {
                     known(f("object"), object, &names)?;
+                    finite3(f("center"), *center)?;
+                    if !force.is_finite() {
+                        return Err(err(f("force"), "must be finite"));
+                    }
                     positive(f("radius"), *radius)?;
+                    if !(radius_per_newton.is_finite() && *radius_per_newton >= 0.0) {
+                        return Err(err(
+                            f("radius_per_newton"),
+                            format!("must be finite and ≥ 0 (got {radius_per_newton})"),
+                        ));
+                    }
                     if let Some(m) = max_radius {
                         positive(f("max_radius"), *m)?;
                     }
