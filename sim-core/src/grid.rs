@@ -37,6 +37,9 @@ pub enum GridError {
     Geometry(&'static str),
 }
 
+/// Most nodes a grid may have: node indices are stored as `u32` (the dynamic model's slots).
+pub const MAX_NODES: usize = u32::MAX as usize;
+
 /// Axis-aligned regular grid geometry: node (i,j,k) sits at origin + spacing*(i,j,k).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GridSpec {
@@ -53,7 +56,8 @@ impl GridSpec {
     /// (origin at `min`, at least 2 nodes per axis).
     ///
     /// # Panics
-    /// If `spacing` is not positive and finite or the bounds are not finite; see
+    /// If `spacing` is not positive and finite, the bounds are not finite, or the grid would have
+    /// more than [`MAX_NODES`] nodes; see
     /// [`GridSpec::try_covering`] for the fallible form.
     pub fn covering(min: DVec3, max: DVec3, spacing: f64) -> Self {
         match Self::try_covering(min, max, spacing) {
@@ -71,15 +75,19 @@ impl GridSpec {
             return Err(GridError::Geometry("bounds must be finite"));
         }
         let extent = (max - min).max(DVec3::ZERO);
-        let n = |e: f64| -> usize {
-            // Tolerate round-off so an exact multiple of the spacing does not add a node.
-            let cells = (e / spacing - 1e-9).ceil().max(1.0);
-            cells as usize + 1
-        };
+        // Tolerate round-off so an exact multiple of the spacing does not add a node.
+        let n = |e: f64| (e / spacing - 1e-9).ceil().max(1.0) + 1.0;
+        let dims = [n(extent.x), n(extent.y), n(extent.z)];
+        // Counted in f64 first: the usize product (and `cells as usize + 1`) would overflow.
+        if dims[0] * dims[1] * dims[2] > MAX_NODES as f64 {
+            return Err(GridError::Geometry(
+                "the box holds more than 2³² − 1 nodes at this spacing",
+            ));
+        }
         Ok(Self {
             origin: min,
             spacing,
-            dims: [n(extent.x), n(extent.y), n(extent.z)],
+            dims: dims.map(|d| d as usize),
         })
     }
 

@@ -4,6 +4,7 @@
 mod alloc;
 mod common;
 mod csg;
+mod grid_limits;
 mod integrators;
 mod plots;
 mod rope;
