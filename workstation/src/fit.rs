@@ -195,6 +195,11 @@ fn write_mesh(path: &Path, mesh: &TriMesh) -> anyhow::Result<()> {
 
 /// Run `fit` and return the report (printing is the caller's choice; see [`print`]).
 pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
+    anyhow::ensure!(
+        args.noise.is_finite() && args.noise >= 0.0,
+        "--noise must be finite and ≥ 0 (got {})",
+        args.noise
+    );
     let input = parse_input(&args.input)?;
     let (points, own_mesh, default_ref): (PointSet, Option<TriMesh>, ReferenceSpec) = match &input {
         InputSpec::File(path) => {

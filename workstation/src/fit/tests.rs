@@ -82,3 +82,13 @@ fn file_input_with_faces_measures_against_its_own_mesh() {
     assert!(run(&args(&["gen:sphere:1:100", "--reference", "mesh:nope.obj"])).is_err());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn bad_noise_is_an_error_naming_the_flag() {
+    // `--noise nan` used to fail as "point 0 has a non-finite coordinate".
+    for v in ["nan", "inf", "-0.1"] {
+        let a = args(&["gen:sphere:1:200", "--quiet", &format!("--noise={v}")]);
+        let msg = format!("{:#}", run(&a).unwrap_err());
+        assert!(msg.contains("--noise"), "{v}: {msg}");
+    }
+}
