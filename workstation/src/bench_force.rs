@@ -14,9 +14,11 @@
 //! Each timed query is bracketed by two `Instant::now()` reads (≈20–30 ns of the figure);
 //! `--repeats` runs give the spread of the p99.
 
+use anyhow::Context as _;
 use glam::DVec3;
 use serde::Serialize;
 use sim_core::bspline_surface::{BicubicPatch, MeshParams, ProbeSculptor};
+use sim_core::grid::GridSpec;
 use sim_core::haptic::fixtures::{AnalyticField, contact_points, force_errors};
 use sim_core::haptic::{FieldContactParams, FieldForce};
 use sim_core::probe::fixtures::{fig4_force, sheet};
@@ -144,12 +146,22 @@ fn field_params(r: f64) -> FieldContactParams {
 /// Run every measurement.
 pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
     anyhow::ensure!(
-        args.radius > 0.0 && args.cells >= 2.0,
-        "radius and cells must be positive"
+        args.radius.is_finite() && args.radius > 0.0,
+        "--radius must be positive and finite (got {})",
+        args.radius
+    );
+    anyhow::ensure!(
+        args.cells.is_finite() && args.cells >= 2.0,
+        "--cells must be finite and at least 2 (got {})",
+        args.cells
     );
     let r = args.radius;
     let sphere = AnalyticField::Sphere { size: r };
     let h = r / args.cells;
+    // `AnalyticField::grid` panics on a grid it cannot build: check it here, as an error.
+    let (lo, hi) = sphere.region(3.0 * h);
+    GridSpec::try_covering(lo, hi, h)
+        .with_context(|| format!("--radius {r} with --cells {}", args.cells))?;
     let grid = sphere.grid(h);
     let params = field_params(r);
     let errors = force_errors(&sphere, &grid, &params, 2000, 1, (0.1, 0.3));
@@ -366,4 +378,32 @@ pub fn print(r: &BenchForceReport, json: bool) -> anyhow::Result<()> {
         d.max_model_mismatch_n
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: BenchForceArgs,
+    }
+
+    #[test]
+    fn bad_sizes_are_errors_naming_the_flag() {
+        // `--radius inf`, `--cells inf` and `--cells 1e300` used to panic in the grid builder.
+        for (flag, value) in [
+            ("--radius", "inf"),
+            ("--radius", "nan"),
+            ("--cells", "inf"),
+            ("--cells", "1e300"),
+        ] {
+            let cli = Cli::parse_from(["bench-force", flag, value, "--fit-points", "0"]);
+            let msg = format!("{:#}", run(&cli.args).unwrap_err());
+            assert!(msg.contains(flag), "{flag} {value}: {msg}");
+        }
+    }
 }
