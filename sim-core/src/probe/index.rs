@@ -101,6 +101,10 @@ impl SampleGrid {
             if d.x * d.y * d.z <= self.max_cells as f64 {
                 break [d.x as usize, d.y as usize, d.z as usize];
             }
+            if !cell.is_finite() {
+                // The extent itself overflowed (samples beyond ±f64::MAX/2): one cell.
+                break [1, 1, 1];
+            }
             cell *= 1.25;
         };
         self.origin = lo;

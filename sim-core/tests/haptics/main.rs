@@ -9,4 +9,5 @@ mod field;
 mod plots;
 mod probe;
 mod reaction;
+mod untrusted_input;
 mod wire;
