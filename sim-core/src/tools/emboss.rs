@@ -143,6 +143,35 @@ pub enum Mapping {
 }
 
 impl Mapping {
+    /// `Ok` when every point is finite and every direction finite and non-zero.
+    pub fn validate(&self) -> Result<(), ToolError> {
+        let (point, dirs) = match *self {
+            Self::Planar {
+                origin,
+                u_axis,
+                v_axis,
+            } => (origin, [u_axis, v_axis]),
+            Self::Cylindrical {
+                origin,
+                axis,
+                reference,
+            } => (origin, [axis, reference]),
+            Self::Spherical {
+                center,
+                pole,
+                reference,
+            } => (center, [pole, reference]),
+        };
+        if point.is_finite() && dirs.iter().all(|d| d.try_normalize().is_some()) {
+            Ok(())
+        } else {
+            Err(ToolError::Param {
+                name: "mapping",
+                reason: "points must be finite, directions finite and non-zero",
+            })
+        }
+    }
+
     /// Image coordinates of `x`, `None` outside the image.
     pub fn uv(&self, x: DVec3) -> Option<(f64, f64)> {
         let angle = |d: DVec3, axis: DVec3, reference: DVec3| -> Option<f64> {
@@ -222,6 +251,7 @@ pub fn emboss(
     only: Option<&[u32]>,
 ) -> Result<usize, ToolError> {
     finite("depth", op.depth)?;
+    op.mapping.validate()?;
     let n_all = positions.len();
     let eps = 0.25 * field.scale();
     let mut moved = 0;

@@ -10,6 +10,7 @@ mod plots;
 mod rope;
 mod scene;
 mod shell;
+mod tool_inputs;
 mod tools;
 
 #[global_allocator]
