@@ -148,6 +148,12 @@ fn non_finite_and_inconsistent_values_are_caught_before_any_work() {
             assert!(msg.contains(n), "`{msg}` lacks `{n}` for:\n{tail}");
         }
     }
+    // An emboss mapping with a zero axis moved nothing, silently.
+    let msg = error_of(
+        "[[op]]\nkind = \"emboss\"\nobject = \"ball\"\nimage = \"x.png\"\ndepth = 0.001\n\
+         mapping = { kind = \"planar\", origin = [0.0, 0.0, 0.0], u_axis = [0.0, 0.0, 0.0], v_axis = [0.0, 0.06, 0.0] }\n",
+    );
+    assert!(msg.contains("op[0].mapping"), "{msg}");
     // Generated shapes that sample no valid surface (as `workstation fit` rejects them).
     for (generate, needle) in [
         (

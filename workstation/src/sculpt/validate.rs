@@ -190,11 +190,19 @@ impl Script {
                     }
                     profile_of(falloff, None).map_err(|r| err(f("falloff"), r))?;
                 }
-                Op::Emboss { object, depth, .. } => {
+                Op::Emboss {
+                    object,
+                    depth,
+                    mapping,
+                    ..
+                } => {
                     known(f("object"), object, &names)?;
                     if !depth.is_finite() {
                         return Err(err(f("depth"), "must be finite"));
                     }
+                    mapping
+                        .validate()
+                        .map_err(|e| err(f("mapping"), e.to_string()))?;
                 }
                 Op::Csg { a, b, result, .. } => {
                     known(f("a"), a, &names)?;
