@@ -203,6 +203,11 @@ pub fn run(args: &BenchSimArgs) -> anyhow::Result<BenchSimReport> {
         args.dt.is_finite() && args.dt > 0.0,
         "--dt must be positive"
     );
+    anyhow::ensure!(
+        args.band_cells > 0.0,
+        "--band-cells must be positive (got {}; inf: every node)",
+        args.band_cells
+    );
     let t0 = Instant::now();
     let object = sphere_object(args.points)?;
     let fit_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -294,4 +299,27 @@ pub fn run(args: &BenchSimArgs) -> anyhow::Result<BenchSimReport> {
         memory_bytes_with_static,
         limits,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: BenchSimArgs,
+    }
+
+    #[test]
+    fn bad_band_is_an_error_naming_the_flag() {
+        // Used to fail after fitting the sphere as "band half-width NaN must be ≥ 0".
+        for v in ["nan", "-1", "0"] {
+            let cli = Cli::parse_from(["bench-sim", &format!("--band-cells={v}")]);
+            let msg = format!("{:#}", run(&cli.args).unwrap_err());
+            assert!(msg.contains("--band-cells"), "{v}: {msg}");
+        }
+    }
 }
