@@ -81,14 +81,7 @@ fn probe(c: &mut Criterion) {
 }
 
 fn sculpt(c: &mut Criterion) {
-    let mesh = MeshParams {
-        total_mass: 0.1,
-        stiffness: 20.0,
-        bending: 2.0,
-        damping_rate: 200.0,
-        plastic_rate: 0.0,
-        pin_border: true,
-    };
+    let mesh = MeshParams::REFERENCE;
     let contact = ContactParams {
         surface_stiffness: 5.0e6,
         surface_damping: 0.0,

@@ -276,14 +276,7 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
 
 /// Time pressed 1 ms ticks of a 30×30 dual with a probe holding 5 mm into it.
 fn time_sculpt(repeats: usize, ticks: usize) -> anyhow::Result<Timing> {
-    let mesh = MeshParams {
-        total_mass: 0.1,
-        stiffness: 20.0,
-        bending: 2.0,
-        damping_rate: 200.0,
-        plastic_rate: 0.0,
-        pin_border: true,
-    };
+    let mesh = MeshParams::REFERENCE;
     let contact = ContactParams {
         surface_stiffness: 5.0e6,
         surface_damping: 1.5e4,

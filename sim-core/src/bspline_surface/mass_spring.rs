@@ -33,6 +33,19 @@ pub struct MeshParams {
     pub pin_border: bool,
 }
 
+impl MeshParams {
+    /// The material the reports, benches and tests measure: a 100 g mesh with 20 N/m
+    /// structural/shear and 2 N/m bending springs, damped at 200/s, elastic, border pinned.
+    pub const REFERENCE: MeshParams = MeshParams {
+        total_mass: 0.1,
+        stiffness: 20.0,
+        bending: 2.0,
+        damping_rate: 200.0,
+        plastic_rate: 0.0,
+        pin_border: true,
+    };
+}
+
 /// Most substeps one [`MassSpringMesh::step`] takes; a mesh folded so far that it needs more
 /// runs past its bound (a resulting non-finite state is rolled back).
 pub const MAX_SUBSTEPS: usize = 1000;

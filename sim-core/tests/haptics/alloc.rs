@@ -60,12 +60,8 @@ fn allocations_in(f: impl FnOnce()) -> usize {
 
 fn sculptor() -> ProbeSculptor {
     let mesh = MeshParams {
-        total_mass: 0.1,
-        stiffness: 20.0,
-        bending: 2.0,
-        damping_rate: 200.0,
         plastic_rate: 1.0,
-        pin_border: true,
+        ..MeshParams::REFERENCE
     };
     let contact = ContactParams {
         surface_stiffness: 5e6,

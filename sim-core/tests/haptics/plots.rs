@@ -259,11 +259,7 @@ fn plots() -> Res {
     for (name, mass, color) in [("light (0.01 kg)", 0.01, RED), ("heavy (1 kg)", 1.0, BLUE)] {
         let mesh = MeshParams {
             total_mass: mass,
-            stiffness: 20.0,
-            bending: 2.0,
-            damping_rate: 200.0,
-            plastic_rate: 0.0,
-            pin_border: true,
+            ..MeshParams::REFERENCE
         };
         let contact = ContactParams {
             surface_stiffness: 5.0e6,
@@ -296,14 +292,7 @@ fn plots() -> Res {
     )?;
 
     // Sculpting reaction: direct (−Σ tool forces) vs Hua–Qin (Σ s_j F_int,j) over a press.
-    let mesh = MeshParams {
-        total_mass: 0.1,
-        stiffness: 20.0,
-        bending: 2.0,
-        damping_rate: 200.0,
-        plastic_rate: 0.0,
-        pin_border: true,
-    };
+    let mesh = MeshParams::REFERENCE;
     let contact = ContactParams {
         surface_stiffness: 5.0e6,
         surface_damping: 1.5e4,

@@ -114,14 +114,7 @@ fn hua_qin_equals_the_direct_reaction_at_equilibrium_under_a_uniform_profile() {
 #[test]
 fn sculpting_reaction_pushes_back_and_hua_qin_agrees_in_direction() {
     let n = 21;
-    let params = MeshParams {
-        total_mass: 0.1,
-        stiffness: 20.0,
-        bending: 2.0,
-        damping_rate: 200.0,
-        plastic_rate: 0.0,
-        pin_border: true,
-    };
+    let params = MeshParams::REFERENCE;
     let contact = ContactParams {
         surface_stiffness: 5.0e6,
         surface_damping: 0.0,

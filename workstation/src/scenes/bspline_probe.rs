@@ -84,12 +84,8 @@ impl Default for SceneConfig {
             n: 30,
             half_size: 0.05,
             mesh: MeshParams {
-                total_mass: 0.1,
-                stiffness: 20.0,
-                bending: 2.0,
-                damping_rate: 200.0,
                 plastic_rate: 5.0,
-                pin_border: true,
+                ..MeshParams::REFERENCE
             },
             probe_axes: DVec3::new(0.012, 0.008, 0.008),
             contact: ContactParams {
