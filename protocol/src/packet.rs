@@ -244,7 +244,8 @@ impl Packet {
                 if flags & !(CURSOR_FLAG_ENGAGED | CURSOR_FLAG_ESTOP) != 0 {
                     return Err(DecodeError::InvalidFlags { kind, flags });
                 }
-                let w = WireCursor::read_from_bytes(body_bytes).map_err(|_| truncated(bytes))?;
+                let w = WireCursor::read_from_bytes(body_bytes)
+                    .map_err(|_| truncated(expected, bytes))?;
                 Body::Cursor(cursor_from_wire(&w, flags))
             }
             PacketKind::Force => {
@@ -253,7 +254,8 @@ impl Packet {
                 if flags & !known != 0 || flags & both == both {
                     return Err(DecodeError::InvalidFlags { kind, flags });
                 }
-                let w = WireForce::read_from_bytes(body_bytes).map_err(|_| truncated(bytes))?;
+                let w = WireForce::read_from_bytes(body_bytes)
+                    .map_err(|_| truncated(expected, bytes))?;
                 Body::Force(force_from_wire(&w, flags))
             }
         };
@@ -300,9 +302,9 @@ pub(crate) fn decode_header(bytes: &[u8]) -> Result<WireHeader, DecodeError> {
     Ok(header)
 }
 
-fn truncated(bytes: &[u8]) -> DecodeError {
+fn truncated(expected: usize, bytes: &[u8]) -> DecodeError {
     DecodeError::Truncated {
-        needed: MAX_PACKET_BYTES,
+        needed: expected,
         got: bytes.len(),
     }
 }

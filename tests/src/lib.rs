@@ -54,11 +54,6 @@ impl ChildGuard {
         Self(Some(child))
     }
 
-    /// Process id.
-    pub fn id(&self) -> u32 {
-        self.0.as_ref().expect("running").id()
-    }
-
     /// Send SIGINT (what Ctrl-C sends) and wait for the process; returns its exit status and
     /// everything it wrote to stderr.
     pub fn interrupt(mut self) -> (std::process::ExitStatus, String) {
