@@ -11,6 +11,9 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use plotters::prelude::*;
+
+#[path = "../tests/support/plot_setup.rs"]
+mod plot_setup;
 use sim_core::accuracy::zero_set_error;
 use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
 use sim_core::sampling::Shape;
@@ -148,15 +151,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn plot(rows: &[Row], path: &str) -> Result<(), Box<dyn std::error::Error>> {
-    let font = std::env::var("PLOT_FONT")
-        .unwrap_or_else(|_| "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf".into());
-    let bytes: &'static [u8] = Box::leak(
-        std::fs::read(&font)
-            .map_err(|e| format!("plot font {font}: {e}"))?
-            .into_boxed_slice(),
-    );
-    plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
-        .map_err(|_| "bad font")?;
+    plot_setup::register_font()?;
     let root = BitMapBackend::new(path, (1400, 600)).into_drawing_area();
     root.fill(&WHITE)?;
     let panels = root.split_evenly((1, 2));

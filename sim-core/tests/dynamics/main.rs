@@ -6,6 +6,8 @@ mod common;
 mod csg;
 mod grid_limits;
 mod integrators;
+#[path = "../support/plot_setup.rs"]
+mod plot_setup;
 mod plots;
 mod rope;
 mod scene;

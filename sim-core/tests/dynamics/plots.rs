@@ -11,27 +11,15 @@ use sim_core::tools::Profile;
 use crate::common::{perturb, small_model};
 use crate::rope::{PEAK, R0, expected_height, pulled_sphere};
 
+use crate::plot_setup::{docs_plot, register_font};
+
 type Res = Result<(), Box<dyn std::error::Error>>;
-
-fn out(name: &str) -> String {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/plots");
-    std::fs::create_dir_all(dir).expect("docs/plots");
-    format!("{dir}/{name}")
-}
-
-fn font() {
-    let path = std::env::var("PLOT_FONT")
-        .unwrap_or_else(|_| "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf".into());
-    let bytes: &'static [u8] =
-        Box::leak(std::fs::read(&path).expect("plot font").into_boxed_slice());
-    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
-}
 
 #[test]
 #[ignore = "writes docs/plots/sculpt_bump_profile.png"]
 fn plots_bump_profile() -> Res {
-    font();
-    let path = out("sculpt_bump_profile.png");
+    register_font().expect("plot font");
+    let path = docs_plot("sculpt_bump_profile.png");
     let root = BitMapBackend::new(&path, (900, 520)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
@@ -95,7 +83,7 @@ fn plots_bump_profile() -> Res {
 #[test]
 #[ignore = "writes docs/plots/sculpt_energy.png"]
 fn plots_energy_past_the_limit() -> Res {
-    font();
+    register_font().expect("plot font");
     let mut base = small_model(6, NodeParams::default());
     perturb(&mut base, 1e-3);
     let (fe_limit, se_limit) = predicted_limits(&base);
@@ -121,7 +109,7 @@ fn plots_energy_past_the_limit() -> Res {
             GREEN,
         ),
     ];
-    let path = out("sculpt_energy.png");
+    let path = docs_plot("sculpt_energy.png");
     let root = BitMapBackend::new(&path, (900, 520)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)

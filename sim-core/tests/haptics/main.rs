@@ -6,6 +6,8 @@ mod alloc;
 mod bspline;
 mod continuity;
 mod field;
+#[path = "../support/plot_setup.rs"]
+mod plot_setup;
 mod plots;
 mod probe;
 mod reaction;

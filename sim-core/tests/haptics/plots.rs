@@ -11,23 +11,11 @@ use sim_core::probe::{
     ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
 
+use crate::plot_setup::{docs_plot, register_font};
+
 type Res = Result<(), Box<dyn std::error::Error>>;
 /// One curve: legend, colour, points, drawn as dots (else a line).
 type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64)>, bool);
-
-fn out(name: &str) -> String {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/plots");
-    std::fs::create_dir_all(dir).expect("docs/plots");
-    format!("{dir}/{name}")
-}
-
-fn font() {
-    let path = std::env::var("PLOT_FONT")
-        .unwrap_or_else(|_| "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf".into());
-    let bytes: &'static [u8] =
-        Box::leak(std::fs::read(&path).expect("plot font").into_boxed_slice());
-    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
-}
 
 const R: f64 = 0.02;
 const KS: f64 = 1.0e6;
@@ -91,7 +79,7 @@ fn line_chart(
 #[test]
 #[ignore = "writes docs/plots; run with --ignored"]
 fn plots() -> Res {
-    font();
+    register_font().expect("plot font");
     // Seed 004 Fig. 4: force vs intrusion depth of a sphere probe through a sampled plane.
     let grid = SampleGrid::new(&sheet(1.2 * R, R / 50.0), R / 4.0)?;
     let mut r = renderer(DirectionMethod::SurfaceNormal);
@@ -111,7 +99,7 @@ fn plots() -> Res {
     }
     let peak = fig4_force(R, 0.0, KS) * 1.1;
     line_chart(
-        &out("haptics_fig4.png"),
+        &docs_plot("haptics_fig4.png"),
         "Sphere probe (R = 20 mm) through a plane (seed 004 Fig. 4)",
         ("intrusion depth (mm)", 0.0, 40.0),
         ("force (N)", 0.0, peak),
@@ -196,21 +184,21 @@ fn plots() -> Res {
     }
     let fmax = peak;
     line_chart(
-        &out("haptics_through_sheet.png"),
+        &docs_plot("haptics_through_sheet.png"),
         "Probe centre passing through a sheet: normal force",
         ("probe centre height above the sheet (mm)", -22.0, 22.0),
         ("F_z (N)", -fmax, fmax),
         &through,
     )?;
     line_chart(
-        &out("haptics_thin_wall.png"),
+        &docs_plot("haptics_thin_wall.png"),
         "Probe centre passing through a 2 mm two-faced wall: normal force",
         ("probe centre height above the front face (mm)", -24.0, 22.0),
         ("F_z (N)", -2.0 * fmax, 2.0 * fmax),
         &wall,
     )?;
     line_chart(
-        &out("haptics_edge.png"),
+        &docs_plot("haptics_edge.png"),
         "Probe sliding over a 90° edge (2 mm deep): force direction",
         ("probe centre x (edge at 0, mm)", -30.0, 24.0),
         ("angle of F from +z toward +x (°)", -5.0, 95.0),
@@ -247,7 +235,7 @@ fn plots() -> Res {
     }
     conv.push(("slope 2", BLACK, vec![(-1.6, -3.6), (-0.7, -1.8)], false));
     line_chart(
-        &out("haptics_convergence.png"),
+        &docs_plot("haptics_convergence.png"),
         "Field force: max relative error vs grid spacing (depth 0.1–0.3 R)",
         ("log10(h / R)", -1.7, -0.6),
         ("log10(max |F − F_ref| / |F_ref|)", -4.0, -0.5),
@@ -284,7 +272,7 @@ fn plots() -> Res {
         prof.push((name, color, pts, false));
     }
     line_chart(
-        &out("haptics_bspline_locality.png"),
+        &docs_plot("haptics_bspline_locality.png"),
         "31×31 dual pressed 6 mm by an 8 mm sphere for 150 ms",
         ("x along the centre row (mm)", -50.0, 50.0),
         ("z (mm)", -7.0, 1.0),
@@ -313,7 +301,7 @@ fn plots() -> Res {
     }
     let top = direct.iter().chain(&hq).fold(0.0f64, |m, p| m.max(p.1)) * 1.1;
     line_chart(
-        &out("haptics_reaction.png"),
+        &docs_plot("haptics_reaction.png"),
         "Pressing a 21×21 dual 6 mm (contact damping 1.5e4 N·s/m³): felt reaction (z)",
         ("time (ms; press ramps 0–100, holds to 400)", 0.0, 400.0),
         ("force (mN)", 0.0, top),
