@@ -1,0 +1,706 @@
+//! The [`Renderer`]: device, pipelines, buffers; headless target and readback.
+
+use std::sync::{
+    Arc,
+    atomic::{AtomicU8, Ordering},
+};
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use crate::{
+    Camera, Image, Overlay, RenderError, Splat, Style,
+    geometry::{
+        LineInstance, MAX_LINES, MESH_SLOTS, Mesh, MeshInstance, MeshVertex, OverlayInstances,
+        SLOT_ARROW_HEAD, SLOT_CURSOR, SLOT_PROBE, unit_cone, unit_sphere,
+    },
+    scene::srgb_to_linear,
+};
+
+/// The per-frame uniform block (`Frame` in `shaders.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct FrameUniform {
+    view_proj: [[f32; 4]; 4],
+    eye: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    viewport: [f32; 4],
+    light: [f32; 4],
+}
+
+/// A mesh uploaded to the GPU.
+#[derive(Debug)]
+struct GpuMesh {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+}
+
+impl GpuMesh {
+    fn new(device: &wgpu::Device, mesh: &Mesh, label: &str) -> Self {
+        let init = |contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        Self {
+            vertices: init(
+                bytemuck::cast_slice(&mesh.vertices),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            indices: init(
+                bytemuck::cast_slice(&mesh.indices),
+                wgpu::BufferUsages::INDEX,
+            ),
+            index_count: mesh.indices.len() as u32,
+        }
+    }
+}
+
+/// The offscreen colour and depth targets of [`Renderer::render`] and their readback buffer.
+#[derive(Debug)]
+struct Offscreen {
+    width: u32,
+    height: u32,
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    readback: wgpu::Buffer,
+    padded_row: u32,
+}
+
+#[derive(Debug)]
+struct Pipelines {
+    splat: wgpu::RenderPipeline,
+    mesh_opaque: wgpu::RenderPipeline,
+    mesh_translucent: wgpu::RenderPipeline,
+    line: wgpu::RenderPipeline,
+}
+
+/// Readback state shared with the `map_async` callback.
+const MAP_PENDING: u8 = 0;
+const MAP_OK: u8 = 1;
+const MAP_FAILED: u8 = 2;
+
+/// Draws splats and overlays; owns its device, queue, pipelines and buffers (see the crate doc).
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    adapter: wgpu::AdapterInfo,
+    color_format: wgpu::TextureFormat,
+    style: Style,
+    pipelines: Pipelines,
+    frame: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    sphere: GpuMesh,
+    cone: GpuMesh,
+    splats: wgpu::Buffer,
+    splat_capacity: usize,
+    mesh_instances: wgpu::Buffer,
+    lines: wgpu::Buffer,
+    overlay: OverlayInstances,
+    target: Option<Offscreen>,
+    map_state: Arc<AtomicU8>,
+}
+
+impl std::fmt::Debug for Renderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Renderer")
+            .field("adapter", &self.adapter_info())
+            .field("color_format", &self.color_format)
+            .field("splat_capacity", &self.splat_capacity)
+            .field("target", &self.target.as_ref().map(|t| (t.width, t.height)))
+            .finish_non_exhaustive()
+    }
+}
+
+impl Renderer {
+    /// Format of the depth buffer `draw` expects (see [`Renderer::create_depth_view`]).
+    pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+    /// Colour format of the headless target: sRGB-encoded RGBA8.
+    pub const HEADLESS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+    /// Splat capacity of a new renderer; the buffer doubles past it.
+    const INITIAL_SPLATS: usize = 4096;
+
+    /// A renderer on the first suitable Vulkan adapter (a GPU if there is one, else lavapipe)
+    /// with a `width × height` offscreen target. `WGPU_BACKEND` and the other wgpu environment
+    /// variables apply.
+    pub fn headless(width: u32, height: u32) -> Result<Self, RenderError> {
+        let desc = wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        };
+        let instance = wgpu::Instance::new(desc.with_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("render"),
+            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|source| RenderError::RequestDevice {
+            adapter: describe(&info),
+            source,
+        })?;
+        let mut renderer = Self::with_device(device, queue, info, Self::HEADLESS_FORMAT);
+        renderer.resize(width, height)?;
+        Ok(renderer)
+    }
+
+    /// A renderer on a device the caller made (e.g. for a window's surface), drawing into
+    /// targets of `color_format` (use an sRGB format: shading is linear). It has no offscreen
+    /// target until [`Renderer::resize`].
+    pub fn with_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        adapter: wgpu::AdapterInfo,
+        color_format: wgpu::TextureFormat,
+    ) -> Self {
+        let frame = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame uniform"),
+            size: std::mem::size_of::<FrameUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: frame.as_entire_binding(),
+            }],
+        });
+        let pipelines = make_pipelines(&device, &layout, color_format);
+        let splats = splat_buffer(&device, Self::INITIAL_SPLATS);
+        let instance_buffer = |label, bytes: usize| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes as u64,
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let mesh_instances = instance_buffer(
+            "mesh instances",
+            MESH_SLOTS * std::mem::size_of::<MeshInstance>(),
+        );
+        let lines = instance_buffer("lines", MAX_LINES * std::mem::size_of::<LineInstance>());
+        Self {
+            sphere: GpuMesh::new(&device, &unit_sphere(24, 48), "sphere"),
+            cone: GpuMesh::new(&device, &unit_cone(32), "cone"),
+            device,
+            queue,
+            adapter,
+            color_format,
+            style: Style::default(),
+            pipelines,
+            frame,
+            bind_group,
+            splats,
+            splat_capacity: Self::INITIAL_SPLATS,
+            mesh_instances,
+            lines,
+            overlay: OverlayInstances::default(),
+            target: None,
+            map_state: Arc::new(AtomicU8::new(MAP_PENDING)),
+        }
+    }
+
+    /// The adapter's name and backend, e.g. `"llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)"`.
+    pub fn adapter_info(&self) -> String {
+        describe(&self.adapter)
+    }
+
+    /// The device, for a caller that creates its own targets (a window's surface).
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// The queue `render` submits to; a window submits `draw`'s encoder to it.
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// The current style.
+    pub fn style(&self) -> &Style {
+        &self.style
+    }
+
+    /// Replaces the style (colours, sizes, lighting) used from the next frame on.
+    pub fn set_style(&mut self, style: Style) {
+        self.style = style;
+    }
+
+    /// (Re)creates the offscreen target of [`Renderer::render`] at `width × height`
+    /// (allocates; a no-op if the size is unchanged).
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
+        let max = self.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::InvalidSize { width, height, max });
+        }
+        if self
+            .target
+            .as_ref()
+            .is_some_and(|t| (t.width, t.height) == (width, height))
+        {
+            return Ok(());
+        }
+        let color = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("offscreen colour"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: self.color_format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let padded_row = (4 * width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: padded_row as u64 * height as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        self.target = Some(Offscreen {
+            width,
+            height,
+            color_view: color.create_view(&Default::default()),
+            color,
+            depth_view: self.create_depth_view(width, height),
+            readback,
+            padded_row,
+        });
+        Ok(())
+    }
+
+    /// A depth buffer view of [`Renderer::DEPTH_FORMAT`] for `draw` into a `width × height`
+    /// target (allocates).
+    pub fn create_depth_view(&self, width: u32, height: u32) -> wgpu::TextureView {
+        let depth = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("depth"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: Self::DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        depth.create_view(&Default::default())
+    }
+
+    /// Draws one frame into the offscreen target and reads it back (blocks until the GPU is
+    /// done). Allocates the returned image; see [`Renderer::render_into`].
+    pub fn render(
+        &mut self,
+        splats: &[Splat],
+        overlay: &Overlay,
+        camera: &Camera,
+    ) -> Result<Image, RenderError> {
+        let mut image = Image::default();
+        self.render_into(splats, overlay, camera, &mut image)?;
+        Ok(image)
+    }
+
+    /// As [`Renderer::render`], into `image` (its buffer is reused when large enough).
+    pub fn render_into(
+        &mut self,
+        splats: &[Splat],
+        overlay: &Overlay,
+        camera: &Camera,
+        image: &mut Image,
+    ) -> Result<(), RenderError> {
+        let target = self.target.take().ok_or(RenderError::NoTarget)?;
+        let result = self.render_target(&target, splats, overlay, camera, image);
+        self.target = Some(target);
+        result
+    }
+
+    fn render_target(
+        &mut self,
+        t: &Offscreen,
+        splats: &[Splat],
+        overlay: &Overlay,
+        camera: &Camera,
+        image: &mut Image,
+    ) -> Result<(), RenderError> {
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        self.draw(
+            &mut encoder,
+            &t.color_view,
+            &t.depth_view,
+            (t.width, t.height),
+            splats,
+            overlay,
+            camera,
+        )?;
+        encoder.copy_texture_to_buffer(
+            t.color.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &t.readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(t.padded_row),
+                    rows_per_image: Some(t.height),
+                },
+            },
+            wgpu::Extent3d {
+                width: t.width,
+                height: t.height,
+                depth_or_array_layers: 1,
+            },
+        );
+        self.queue.submit([encoder.finish()]);
+
+        self.map_state.store(MAP_PENDING, Ordering::Release);
+        let state = Arc::clone(&self.map_state);
+        t.readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            state.store(
+                if r.is_ok() { MAP_OK } else { MAP_FAILED },
+                Ordering::Release,
+            );
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely())?;
+        if self.map_state.load(Ordering::Acquire) != MAP_OK {
+            return Err(RenderError::Readback(wgpu::BufferAsyncError));
+        }
+        {
+            let mapped = t
+                .readback
+                .get_mapped_range(..)
+                .map_err(|_| wgpu::BufferAsyncError)?;
+            let row = 4 * t.width as usize;
+            image.width = t.width;
+            image.height = t.height;
+            image.rgba.clear();
+            image.rgba.reserve(row * t.height as usize);
+            for y in 0..t.height as usize {
+                let start = y * t.padded_row as usize;
+                image.rgba.extend_from_slice(&mapped[start..start + row]);
+            }
+        }
+        t.readback.unmap();
+        Ok(())
+    }
+
+    /// Records one frame into `encoder`: clears `color` (of the renderer's colour format) to the
+    /// background and `depth` (of [`Renderer::DEPTH_FORMAT`]) to 1, both `size` pixels, and draws
+    /// the splats and the overlay seen by `camera`. Uploads happen through the queue, so submit
+    /// the encoder before the next `draw`. Validates every input first; on error nothing is
+    /// recorded. Grows the splat buffer if this frame has more splats than any before.
+    #[allow(clippy::too_many_arguments)] // the target (encoder, two views, size) and the scene
+    pub fn draw(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        color: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+        size: (u32, u32),
+        splats: &[Splat],
+        overlay: &Overlay,
+        camera: &Camera,
+    ) -> Result<(), RenderError> {
+        let (width, height) = size;
+        if width == 0 || height == 0 {
+            let max = self.device.limits().max_texture_dimension_2d;
+            return Err(RenderError::InvalidSize { width, height, max });
+        }
+        camera.validate()?;
+        if let Some(index) = splats.iter().position(|s| !s.is_valid()) {
+            return Err(RenderError::NonFinite {
+                what: "splat",
+                index,
+            });
+        }
+        self.overlay.build(overlay, camera, height, &self.style)?;
+
+        self.queue.write_buffer(
+            &self.frame,
+            0,
+            bytemuck::bytes_of(&self.frame_uniform(camera, size)),
+        );
+        if splats.len() > self.splat_capacity {
+            self.splat_capacity = splats.len().next_power_of_two();
+            self.splats = splat_buffer(&self.device, self.splat_capacity);
+        }
+        if !splats.is_empty() {
+            self.queue
+                .write_buffer(&self.splats, 0, bytemuck::cast_slice(splats));
+        }
+        self.queue.write_buffer(
+            &self.mesh_instances,
+            0,
+            bytemuck::cast_slice(&self.overlay.meshes),
+        );
+        self.queue
+            .write_buffer(&self.lines, 0, bytemuck::cast_slice(&self.overlay.lines));
+
+        let [r, g, b, a] = self.style.background;
+        let clear = wgpu::Color {
+            r: srgb_to_linear(r) as f64,
+            g: srgb_to_linear(g) as f64,
+            b: srgb_to_linear(b) as f64,
+            a: a as f64 / 255.0,
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("scene"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: color,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(clear),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+
+        if !splats.is_empty() {
+            pass.set_pipeline(&self.pipelines.splat);
+            let bytes = std::mem::size_of_val(splats) as u64;
+            pass.set_vertex_buffer(0, self.splats.slice(..bytes));
+            pass.draw(0..4, 0..splats.len() as u32);
+        }
+        let used = self.overlay.used;
+        let mesh = |pass: &mut wgpu::RenderPass<'_>, m: &GpuMesh, slot: u32| {
+            if used[slot as usize] {
+                pass.set_vertex_buffer(0, m.vertices.slice(..));
+                pass.set_vertex_buffer(1, self.mesh_instances.slice(..));
+                pass.set_index_buffer(m.indices.slice(..), wgpu::IndexFormat::Uint16);
+                pass.draw_indexed(0..m.index_count, 0, slot..slot + 1);
+            }
+        };
+        pass.set_pipeline(&self.pipelines.mesh_opaque);
+        mesh(&mut pass, &self.sphere, SLOT_CURSOR);
+        mesh(&mut pass, &self.cone, SLOT_ARROW_HEAD);
+        if self.overlay.line_count > 0 {
+            pass.set_pipeline(&self.pipelines.line);
+            pass.set_vertex_buffer(0, self.lines.slice(..));
+            pass.draw(0..4, 0..self.overlay.line_count);
+        }
+        pass.set_pipeline(&self.pipelines.mesh_translucent);
+        mesh(&mut pass, &self.sphere, SLOT_PROBE);
+        Ok(())
+    }
+
+    fn frame_uniform(&self, camera: &Camera, (width, height): (u32, u32)) -> FrameUniform {
+        let view_proj = camera.projection(width as f32 / height as f32) * camera.view();
+        let eye = Vec3::from(camera.eye);
+        let forward = (Vec3::from(camera.target) - eye).normalize();
+        let right = forward.cross(Vec3::from(camera.up)).normalize();
+        let up = right.cross(forward);
+        let l = &self.style.lighting;
+        let (w, h) = (width as f32, height as f32);
+        FrameUniform {
+            view_proj: view_proj.to_cols_array_2d(),
+            eye: eye.extend(1.0).into(),
+            right: right.extend(0.0).into(),
+            up: up.extend(0.0).into(),
+            viewport: [w, h, 1.0 / w, 1.0 / h],
+            light: [l.ambient, l.diffuse, l.specular, l.shininess],
+        }
+    }
+}
+
+fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type)
+}
+
+fn splat_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("splats"),
+        size: (capacity * std::mem::size_of::<Splat>()) as u64,
+        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn make_pipelines(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    color_format: wgpu::TextureFormat,
+) -> Pipelines {
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("render shaders"),
+        source: wgpu::ShaderSource::Wgsl(include_str!("shaders.wgsl").into()),
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("render"),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    let splat_attrs = wgpu::vertex_attr_array![
+        0 => Float32x3, 1 => Float32x3, 2 => Float32, 3 => Unorm8x4
+    ];
+    let mesh_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+    let mesh_instance_attrs = wgpu::vertex_attr_array![
+        2 => Float32x4, 3 => Float32x4, 4 => Float32x4, 5 => Float32x4,
+        6 => Float32x4, 7 => Float32x4, 8 => Float32x4, 9 => Float32x4
+    ];
+    let line_attrs = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4];
+    let layout_of = |stride: usize, step_mode, attributes| {
+        Some(wgpu::VertexBufferLayout {
+            array_stride: stride as u64,
+            step_mode,
+            attributes,
+        })
+    };
+    let instance = wgpu::VertexStepMode::Instance;
+    let splat_buffers = [layout_of(
+        std::mem::size_of::<Splat>(),
+        instance,
+        &splat_attrs[..],
+    )];
+    let mesh_buffers = [
+        layout_of(
+            std::mem::size_of::<MeshVertex>(),
+            wgpu::VertexStepMode::Vertex,
+            &mesh_attrs[..],
+        ),
+        layout_of(
+            std::mem::size_of::<MeshInstance>(),
+            instance,
+            &mesh_instance_attrs[..],
+        ),
+    ];
+    let line_buffers = [layout_of(
+        std::mem::size_of::<LineInstance>(),
+        instance,
+        &line_attrs[..],
+    )];
+
+    struct Spec<'a> {
+        label: &'a str,
+        vs: &'a str,
+        fs: &'a str,
+        buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+        topology: wgpu::PrimitiveTopology,
+        cull: Option<wgpu::Face>,
+        depth_write: bool,
+        blend: Option<wgpu::BlendState>,
+    }
+    let make = |s: Spec<'_>| {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(s.label),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &shader,
+                entry_point: Some(s.vs),
+                compilation_options: Default::default(),
+                buffers: s.buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: s.topology,
+                cull_mode: s.cull,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: Renderer::DEPTH_FORMAT,
+                depth_write_enabled: Some(s.depth_write),
+                depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some(s.fs),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: color_format,
+                    blend: s.blend,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    };
+    use wgpu::PrimitiveTopology::{TriangleList, TriangleStrip};
+    let back = Some(wgpu::Face::Back);
+    Pipelines {
+        splat: make(Spec {
+            label: "splats",
+            vs: "vs_splat",
+            fs: "fs_splat",
+            buffers: &splat_buffers,
+            topology: TriangleStrip,
+            cull: None,
+            depth_write: true,
+            blend: None,
+        }),
+        mesh_opaque: make(Spec {
+            label: "opaque meshes",
+            vs: "vs_mesh",
+            fs: "fs_mesh_opaque",
+            buffers: &mesh_buffers,
+            topology: TriangleList,
+            cull: back,
+            depth_write: true,
+            blend: None,
+        }),
+        mesh_translucent: make(Spec {
+            label: "translucent meshes",
+            vs: "vs_mesh",
+            fs: "fs_mesh_translucent",
+            buffers: &mesh_buffers,
+            topology: TriangleList,
+            cull: back,
+            depth_write: false,
+            blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+        }),
+        line: make(Spec {
+            label: "lines",
+            vs: "vs_line",
+            fs: "fs_line",
+            buffers: &line_buffers,
+            topology: TriangleStrip,
+            cull: None,
+            depth_write: true,
+            blend: None,
+        }),
+    }
+}

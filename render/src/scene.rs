@@ -1,0 +1,216 @@
+//! What the caller hands the renderer each frame (splats, overlays) and once (style).
+
+use bytemuck::{Pod, Zeroable};
+
+/// One surfel: a disk centred at `position`, in the plane whose unit normal is `normal`.
+///
+/// 32 bytes, `#[repr(C)]` and `Pod`: a slice of splats is uploaded to the GPU as it is. A normal
+/// of (near) zero length draws the disk facing the camera. `radius` (metres) comes from local
+/// spacing, computed by the caller; a radius of 0 draws nothing. `color` is sRGB, alpha ignored
+/// (splats are opaque).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Splat {
+    /// Centre of the disk.
+    pub position: [f32; 3],
+    /// Unit normal of the disk (normalised again on the GPU).
+    pub normal: [f32; 3],
+    /// Disk radius in metres (≥ 0).
+    pub radius: f32,
+    /// sRGB colour; alpha is ignored.
+    pub color: [u8; 4],
+}
+
+impl Splat {
+    /// Whether every field is finite and the radius is not negative.
+    pub fn is_valid(&self) -> bool {
+        self.position
+            .iter()
+            .chain(&self.normal)
+            .all(|v| v.is_finite())
+            && self.radius.is_finite()
+            && self.radius >= 0.0
+    }
+}
+
+/// An ellipsoid: a unit sphere scaled by `semi_axes`, rotated by `rotation`, moved to `center`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ellipsoid {
+    /// Centre in metres.
+    pub center: [f32; 3],
+    /// Orientation as a unit quaternion `[x, y, z, w]` (normalised before use).
+    pub rotation: [f32; 4],
+    /// Semi-axes along the ellipsoid's local x, y, z, in metres.
+    pub semi_axes: [f32; 3],
+}
+
+/// The non-point parts of the scene; every part is optional.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Overlay {
+    /// The sculpting probe, drawn translucent in [`Style::probe_color`].
+    pub probe: Option<Ellipsoid>,
+    /// The haptic cursor's position: a sphere of [`Style::cursor_radius_px`] pixels.
+    pub cursor: Option<[f32; 3]>,
+    /// The sculpting region as an axis-aligned box `(min, max)`: 12 lines.
+    pub region: Option<([f32; 3], [f32; 3])>,
+    /// The contact force as an arrow `(origin, vector)` in metres (the caller scales newtons to
+    /// a length); a zero vector draws nothing.
+    pub force: Option<([f32; 3], [f32; 3])>,
+}
+
+/// The headlight model: `albedo · (ambient + diffuse·|n·l|) + specular·|n·l|^shininess`, in linear
+/// colour, with `l` the unit vector from the surface point to the eye.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lighting {
+    /// Fraction of the albedo lit regardless of orientation.
+    pub ambient: f32,
+    /// Weight of the Lambert term.
+    pub diffuse: f32,
+    /// Weight of the white specular highlight.
+    pub specular: f32,
+    /// Exponent of the specular highlight.
+    pub shininess: f32,
+}
+
+impl Default for Lighting {
+    fn default() -> Self {
+        Self {
+            ambient: 0.22,
+            diffuse: 0.78,
+            specular: 0.12,
+            shininess: 40.0,
+        }
+    }
+}
+
+impl Lighting {
+    /// The shaded colour (linear RGB) of a surface of linear `albedo` at `n_dot_l = |n·l|`: what
+    /// the shaders compute, for tests and for callers that want to predict a pixel.
+    pub fn shade(&self, albedo: [f32; 3], n_dot_l: f32) -> [f32; 3] {
+        let d = n_dot_l.abs().min(1.0);
+        let s = self.specular * d.powf(self.shininess);
+        albedo.map(|a| a * (self.ambient + self.diffuse * d) + s)
+    }
+}
+
+/// How things look: colours (sRGB), sizes in pixels, lighting. Set once with
+/// [`Renderer::set_style`](crate::Renderer::set_style).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Style {
+    /// Background colour (sRGB; alpha is written as given).
+    pub background: [u8; 4],
+    /// Probe colour (sRGB) and opacity (alpha, at the probe's centre; more towards its rim).
+    pub probe_color: [u8; 4],
+    /// Cursor colour (sRGB).
+    pub cursor_color: [u8; 3],
+    /// Cursor radius in pixels (the sphere keeps its screen size at any distance).
+    pub cursor_radius_px: f32,
+    /// Region box colour (sRGB).
+    pub region_color: [u8; 3],
+    /// Region box line width in pixels.
+    pub region_width_px: f32,
+    /// Force arrow colour (sRGB).
+    pub force_color: [u8; 3],
+    /// Force arrow shaft width in pixels.
+    pub force_width_px: f32,
+    /// The headlight.
+    pub lighting: Lighting,
+}
+
+impl Default for Style {
+    fn default() -> Self {
+        Self {
+            background: [24, 26, 32, 255],
+            probe_color: [120, 190, 255, 90],
+            cursor_color: [255, 220, 40],
+            cursor_radius_px: 6.0,
+            region_color: [200, 200, 210],
+            region_width_px: 2.0,
+            force_color: [255, 40, 200],
+            force_width_px: 4.0,
+            lighting: Lighting::default(),
+        }
+    }
+}
+
+/// sRGB-encoded byte to linear intensity (the exact piecewise curve).
+pub fn srgb_to_linear(c: u8) -> f32 {
+    let c = c as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Linear intensity to an sRGB-encoded byte (what an sRGB render target stores).
+pub fn linear_to_srgb(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let s = if v <= 0.003_130_8 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0).round() as u8
+}
+
+/// sRGB bytes to linear RGBA (alpha is linear already).
+pub(crate) fn color_linear(c: [u8; 3], alpha: f32) -> [f32; 4] {
+    [
+        srgb_to_linear(c[0]),
+        srgb_to_linear(c[1]),
+        srgb_to_linear(c[2]),
+        alpha,
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn splat_is_32_bytes() {
+        assert_eq!(std::mem::size_of::<Splat>(), 32);
+    }
+
+    #[test]
+    fn srgb_round_trips_every_byte() {
+        for c in 0..=255u8 {
+            assert_eq!(linear_to_srgb(srgb_to_linear(c)), c);
+        }
+    }
+
+    #[test]
+    fn invalid_splats_are_caught() {
+        let ok = Splat {
+            radius: 1.0,
+            ..Default::default()
+        };
+        assert!(ok.is_valid());
+        assert!(!Splat { radius: -1.0, ..ok }.is_valid());
+        assert!(
+            !Splat {
+                position: [f32::NAN, 0.0, 0.0],
+                ..ok
+            }
+            .is_valid()
+        );
+        assert!(
+            !Splat {
+                normal: [0.0, f32::INFINITY, 0.0],
+                ..ok
+            }
+            .is_valid()
+        );
+    }
+
+    #[test]
+    fn lighting_head_on_is_albedo_plus_highlight() {
+        let l = Lighting::default();
+        let c = l.shade([0.5, 0.25, 0.0], 1.0);
+        let k = l.ambient + l.diffuse;
+        assert!((c[0] - (0.5 * k + l.specular)).abs() < 1e-6);
+        assert!((c[2] - l.specular).abs() < 1e-6);
+        assert!(l.shade([0.5; 3], 0.2)[0] < c[0]);
+    }
+}
