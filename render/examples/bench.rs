@@ -7,11 +7,12 @@
 //!
 //! Each size renders a sphere of splats with every overlay (probe, cursor, box, force arrow),
 //! 3 warm-up frames, then `--frames` timed `render_into` calls (draw + submit + wait + readback
-//! into a reused image); prints the median frame time, its p10–p90 spread and frames/s.
+//! into a reused image); prints the median frame time, its p10–p90 spread and frames/s, with
+//! both sides of the surface drawn (the default) and with back-facing splats culled.
 
 use std::{f32::consts::PI, time::Instant};
 
-use render::{Camera, Ellipsoid, Image, Overlay, Renderer, Splat};
+use render::{Camera, Ellipsoid, Image, Overlay, Renderer, Splat, Style};
 
 struct Args {
     points: Vec<usize>,
@@ -133,29 +134,36 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     }
     println!(
-        "{:>9}  {:>10}  {:>17}  {:>8}",
-        "points", "median ms", "p10-p90 ms", "frames/s"
+        "{:>9}  {:>10}  {:>10}  {:>17}  {:>8}",
+        "points", "splats", "median ms", "p10-p90 ms", "frames/s"
     );
     let mut image = Image::default();
     for &n in &args.points {
         let splats = sphere_splats(n);
-        for _ in 0..3 {
-            renderer.render_into(&splats, &overlay, &camera, &mut image)?;
+        for cull in [false, true] {
+            renderer.set_style(Style {
+                cull_back_facing: cull,
+                ..Style::default()
+            });
+            for _ in 0..3 {
+                renderer.render_into(&splats, &overlay, &camera, &mut image)?;
+            }
+            let mut times = Vec::with_capacity(args.frames);
+            for _ in 0..args.frames {
+                let t = Instant::now();
+                renderer.render_into(&splats, &overlay, &camera, &mut image)?;
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            times.sort_by(f64::total_cmp);
+            let median = percentile(&times, 0.5);
+            println!(
+                "{n:>9}  {:>10}  {median:>10.2}  {:>8.2}-{:<8.2}  {:>8.1}",
+                if cull { "front only" } else { "both sides" },
+                percentile(&times, 0.1),
+                percentile(&times, 0.9),
+                1e3 / median
+            );
         }
-        let mut times = Vec::with_capacity(args.frames);
-        for _ in 0..args.frames {
-            let t = Instant::now();
-            renderer.render_into(&splats, &overlay, &camera, &mut image)?;
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-        }
-        times.sort_by(f64::total_cmp);
-        let median = percentile(&times, 0.5);
-        println!(
-            "{n:>9}  {median:>10.2}  {:>8.2}-{:<8.2}  {:>8.1}",
-            percentile(&times, 0.1),
-            percentile(&times, 0.9),
-            1e3 / median
-        );
     }
     Ok(())
 }

@@ -4,9 +4,11 @@
 //! What it draws, in this order, in one render pass with a depth buffer:
 //! 1. the points as lit, oriented surfel splats ([`Splat`]): a disk per point centred at its
 //!    position, in the tangent plane of its unit normal, of the radius the caller gives (from
-//!    local spacing), in its sRGB colour; instanced quads expanded in the vertex shader, fragments
-//!    outside the unit disk discarded, depth-tested and written (no EWA blending: the nearest
-//!    disk wins);
+//!    local spacing), in its sRGB colour; one triangle per splat enclosing its disk, expanded
+//!    in the vertex shader in the tangent plane from the splat array (bound as a storage
+//!    buffer: no instancing, which Mesa's software rasteriser runs one instance at a time),
+//!    fragments outside the unit disk discarded, depth-tested and written (no EWA blending: the
+//!    nearest disk wins); optionally back-facing splats culled ([`Style::cull_back_facing`]);
 //! 2. the opaque overlays ([`Overlay`]): the haptic cursor (a small sphere of constant screen
 //!    size) and the head of the force arrow;
 //! 3. lines of a given width in pixels, depth-tested: the sculpting region's 12 box edges and the
@@ -38,6 +40,7 @@
 mod camera;
 mod geometry;
 mod image;
+mod pipelines;
 mod renderer;
 mod scene;
 
@@ -77,6 +80,14 @@ pub enum RenderError {
     /// `render` was called on a renderer that has no offscreen target (see [`Renderer::resize`]).
     #[error("this renderer has no offscreen target; call `resize` first")]
     NoTarget,
+    /// More splats than one storage buffer binding of this device holds.
+    #[error("{count} splats exceed this device's limit of {max} per frame")]
+    TooManySplats {
+        /// Splats passed.
+        count: usize,
+        /// Most splats one frame can draw (storage binding size / 32 bytes).
+        max: usize,
+    },
     /// The camera cannot produce a projection.
     #[error("invalid camera: {0}")]
     InvalidCamera(&'static str),

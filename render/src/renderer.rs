@@ -12,9 +12,10 @@ use wgpu::util::DeviceExt;
 use crate::{
     Camera, Image, Overlay, RenderError, Splat, Style,
     geometry::{
-        LineInstance, MAX_LINES, MESH_SLOTS, Mesh, MeshInstance, MeshVertex, OverlayInstances,
-        SLOT_ARROW_HEAD, SLOT_CURSOR, SLOT_PROBE, unit_cone, unit_sphere,
+        LineInstance, MAX_LINES, MESH_SLOTS, Mesh, MeshInstance, OverlayInstances, SLOT_ARROW_HEAD,
+        SLOT_CURSOR, SLOT_PROBE, unit_cone, unit_sphere,
     },
+    pipelines::{Pipelines, bind_group_layout, make_pipelines},
     scene::srgb_to_linear,
 };
 
@@ -28,6 +29,7 @@ struct FrameUniform {
     up: [f32; 4],
     viewport: [f32; 4],
     light: [f32; 4],
+    options: [f32; 4],
 }
 
 /// A mesh uploaded to the GPU.
@@ -73,14 +75,6 @@ struct Offscreen {
     padded_row: u32,
 }
 
-#[derive(Debug)]
-struct Pipelines {
-    splat: wgpu::RenderPipeline,
-    mesh_opaque: wgpu::RenderPipeline,
-    mesh_translucent: wgpu::RenderPipeline,
-    line: wgpu::RenderPipeline,
-}
-
 /// Readback state shared with the `map_async` callback.
 const MAP_PENDING: u8 = 0;
 const MAP_OK: u8 = 1;
@@ -95,6 +89,7 @@ pub struct Renderer {
     style: Style,
     pipelines: Pipelines,
     frame: wgpu::Buffer,
+    layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
     sphere: GpuMesh,
     cone: GpuMesh,
@@ -145,7 +140,11 @@ impl Renderer {
         let info = adapter.get_info();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("render"),
-            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+            required_limits: wgpu::Limits {
+                max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size,
+                max_buffer_size: adapter.limits().max_buffer_size,
+                ..wgpu::Limits::default().using_resolution(adapter.limits())
+            },
             ..Default::default()
         }))
         .map_err(|source| RenderError::RequestDevice {
@@ -172,29 +171,10 @@ impl Renderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("frame"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: frame.as_entire_binding(),
-            }],
-        });
+        let layout = bind_group_layout(&device, std::mem::size_of::<FrameUniform>() as u64);
         let pipelines = make_pipelines(&device, &layout, color_format);
         let splats = splat_buffer(&device, Self::INITIAL_SPLATS);
+        let bind_group = make_bind_group(&device, &layout, &frame, &splats);
         let instance_buffer = |label, bytes: usize| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -218,6 +198,7 @@ impl Renderer {
             style: Style::default(),
             pipelines,
             frame,
+            layout,
             bind_group,
             splats,
             splat_capacity: Self::INITIAL_SPLATS,
@@ -451,8 +432,18 @@ impl Renderer {
             bytemuck::bytes_of(&self.frame_uniform(camera, size)),
         );
         if splats.len() > self.splat_capacity {
-            self.splat_capacity = splats.len().next_power_of_two();
+            let max = self.device.limits().max_storage_buffer_binding_size as usize;
+            let max_splats = max / std::mem::size_of::<Splat>();
+            if splats.len() > max_splats {
+                return Err(RenderError::TooManySplats {
+                    count: splats.len(),
+                    max: max_splats,
+                });
+            }
+            self.splat_capacity = splats.len().next_power_of_two().min(max_splats);
             self.splats = splat_buffer(&self.device, self.splat_capacity);
+            self.bind_group =
+                make_bind_group(&self.device, &self.layout, &self.frame, &self.splats);
         }
         if !splats.is_empty() {
             self.queue
@@ -499,10 +490,11 @@ impl Renderer {
         pass.set_bind_group(0, &self.bind_group, &[]);
 
         if !splats.is_empty() {
+            // One triangle per splat, its three vertices pulled from the storage buffer: on the
+            // software rasteriser, cost goes with triangles (a quad costs 1.6x) and instancing
+            // (run instance by instance) costs more still.
             pass.set_pipeline(&self.pipelines.splat);
-            let bytes = std::mem::size_of_val(splats) as u64;
-            pass.set_vertex_buffer(0, self.splats.slice(..bytes));
-            pass.draw(0..4, 0..splats.len() as u32);
+            pass.draw(0..3 * splats.len() as u32, 0..1);
         }
         let used = self.overlay.used;
         let mesh = |pass: &mut wgpu::RenderPass<'_>, m: &GpuMesh, slot: u32| {
@@ -541,6 +533,16 @@ impl Renderer {
             up: up.extend(0.0).into(),
             viewport: [w, h, 1.0 / w, 1.0 / h],
             light: [l.ambient, l.diffuse, l.specular, l.shininess],
+            options: [
+                if self.style.cull_back_facing {
+                    1.0
+                } else {
+                    0.0
+                },
+                0.0,
+                0.0,
+                0.0,
+            ],
         }
     }
 }
@@ -553,154 +555,29 @@ fn splat_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("splats"),
         size: (capacity * std::mem::size_of::<Splat>()) as u64,
-        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
 }
 
-fn make_pipelines(
+fn make_bind_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
-    color_format: wgpu::TextureFormat,
-) -> Pipelines {
-    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("render shaders"),
-        source: wgpu::ShaderSource::Wgsl(include_str!("shaders.wgsl").into()),
-    });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("render"),
-        bind_group_layouts: &[Some(layout)],
-        immediate_size: 0,
-    });
-    let splat_attrs = wgpu::vertex_attr_array![
-        0 => Float32x3, 1 => Float32x3, 2 => Float32, 3 => Unorm8x4
-    ];
-    let mesh_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
-    let mesh_instance_attrs = wgpu::vertex_attr_array![
-        2 => Float32x4, 3 => Float32x4, 4 => Float32x4, 5 => Float32x4,
-        6 => Float32x4, 7 => Float32x4, 8 => Float32x4, 9 => Float32x4
-    ];
-    let line_attrs = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4];
-    let layout_of = |stride: usize, step_mode, attributes| {
-        Some(wgpu::VertexBufferLayout {
-            array_stride: stride as u64,
-            step_mode,
-            attributes,
-        })
-    };
-    let instance = wgpu::VertexStepMode::Instance;
-    let splat_buffers = [layout_of(
-        std::mem::size_of::<Splat>(),
-        instance,
-        &splat_attrs[..],
-    )];
-    let mesh_buffers = [
-        layout_of(
-            std::mem::size_of::<MeshVertex>(),
-            wgpu::VertexStepMode::Vertex,
-            &mesh_attrs[..],
-        ),
-        layout_of(
-            std::mem::size_of::<MeshInstance>(),
-            instance,
-            &mesh_instance_attrs[..],
-        ),
-    ];
-    let line_buffers = [layout_of(
-        std::mem::size_of::<LineInstance>(),
-        instance,
-        &line_attrs[..],
-    )];
-
-    struct Spec<'a> {
-        label: &'a str,
-        vs: &'a str,
-        fs: &'a str,
-        buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
-        topology: wgpu::PrimitiveTopology,
-        cull: Option<wgpu::Face>,
-        depth_write: bool,
-        blend: Option<wgpu::BlendState>,
-    }
-    let make = |s: Spec<'_>| {
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(s.label),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &shader,
-                entry_point: Some(s.vs),
-                compilation_options: Default::default(),
-                buffers: s.buffers,
+    frame: &wgpu::Buffer,
+    splats: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("frame + splats"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: frame.as_entire_binding(),
             },
-            primitive: wgpu::PrimitiveState {
-                topology: s.topology,
-                cull_mode: s.cull,
-                ..Default::default()
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: splats.as_entire_binding(),
             },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: Renderer::DEPTH_FORMAT,
-                depth_write_enabled: Some(s.depth_write),
-                depth_compare: Some(wgpu::CompareFunction::LessEqual),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some(s.fs),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: color_format,
-                    blend: s.blend,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
-    };
-    use wgpu::PrimitiveTopology::{TriangleList, TriangleStrip};
-    let back = Some(wgpu::Face::Back);
-    Pipelines {
-        splat: make(Spec {
-            label: "splats",
-            vs: "vs_splat",
-            fs: "fs_splat",
-            buffers: &splat_buffers,
-            topology: TriangleStrip,
-            cull: None,
-            depth_write: true,
-            blend: None,
-        }),
-        mesh_opaque: make(Spec {
-            label: "opaque meshes",
-            vs: "vs_mesh",
-            fs: "fs_mesh_opaque",
-            buffers: &mesh_buffers,
-            topology: TriangleList,
-            cull: back,
-            depth_write: true,
-            blend: None,
-        }),
-        mesh_translucent: make(Spec {
-            label: "translucent meshes",
-            vs: "vs_mesh",
-            fs: "fs_mesh_translucent",
-            buffers: &mesh_buffers,
-            topology: TriangleList,
-            cull: back,
-            depth_write: false,
-            blend: Some(wgpu::BlendState::ALPHA_BLENDING),
-        }),
-        line: make(Spec {
-            label: "lines",
-            vs: "vs_line",
-            fs: "fs_line",
-            buffers: &line_buffers,
-            topology: TriangleStrip,
-            cull: None,
-            depth_write: true,
-            blend: None,
-        }),
-    }
+        ],
+    })
 }

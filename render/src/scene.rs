@@ -115,6 +115,11 @@ pub struct Style {
     pub force_width_px: f32,
     /// The headlight.
     pub lighting: Lighting,
+    /// Skip splats whose normal faces away from the eye (`n·(eye − p) < 0`). Right for closed
+    /// surfaces with consistently outward normals (DESIGN §2 orients them), where the far side
+    /// is hidden anyway: about half the splats and fragments less. Off by default, so
+    /// inconsistent normals or open sheets still draw both sides.
+    pub cull_back_facing: bool,
 }
 
 impl Default for Style {
@@ -129,6 +134,7 @@ impl Default for Style {
             force_color: [255, 40, 200],
             force_width_px: 4.0,
             lighting: Lighting::default(),
+            cull_back_facing: false,
         }
     }
 }

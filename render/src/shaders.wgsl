@@ -9,9 +9,12 @@ struct Frame {
     up: vec4<f32>,        // xyz: camera up (world)
     viewport: vec4<f32>,  // width, height, 1/width, 1/height (pixels)
     light: vec4<f32>,     // ambient, diffuse, specular, shininess
+    options: vec4<f32>,   // x: 1 to cull splats whose normal faces away from the eye
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
+// The splats as uploaded (`Splat`, 32 bytes): [p.x, p.y, p.z, n.x], [n.y, n.z, radius, rgba8].
+@group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
 
 fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
     let lo = c / 12.92;
@@ -34,13 +37,6 @@ fn corner(vi: u32) -> vec2<f32> {
 
 // ---- surfel splats ----
 
-struct SplatIn {
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) radius: f32,
-    @location(3) color: vec4<f32>,
-};
-
 struct SplatOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) uv: vec2<f32>,
@@ -49,15 +45,25 @@ struct SplatOut {
     @location(3) @interpolate(flat) albedo: vec3<f32>,
 };
 
+// Splat vi / 3, corner vi % 3 of the one triangle that encloses its disk.
 @vertex
-fn vs_splat(@builtin(vertex_index) vi: u32, s: SplatIn) -> SplatOut {
-    let uv = corner(vi);
+fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
+    let a = splats[2u * (vi / 3u)];
+    let b = splats[2u * (vi / 3u) + 1u];
+    let position = a.xyz;
+    let normal = vec3<f32>(a.w, b.xy);
+    let radius = b.z;
+    // The equilateral triangle whose incircle is the unit disk: corners at radius 2.
+    var corners = array<vec2<f32>, 3>(
+        vec2<f32>(0.0, 2.0), vec2<f32>(-1.7320508, -1.0), vec2<f32>(1.7320508, -1.0)
+    );
+    let uv = corners[vi % 3u];
     var n: vec3<f32>;
     var t1: vec3<f32>;
     var t2: vec3<f32>;
-    let len2 = dot(s.normal, s.normal);
+    let len2 = dot(normal, normal);
     if len2 > 1e-12 {
-        n = s.normal * inverseSqrt(len2);
+        n = normal * inverseSqrt(len2);
         // Orthonormal tangent basis without branches on the axis (Duff et al. 2017).
         let sgn = select(-1.0, 1.0, n.z >= 0.0);
         let a = -1.0 / (sgn + n.z);
@@ -65,17 +71,20 @@ fn vs_splat(@builtin(vertex_index) vi: u32, s: SplatIn) -> SplatOut {
         t1 = vec3<f32>(1.0 + sgn * n.x * n.x * a, sgn * b, -sgn * n.x);
         t2 = vec3<f32>(b, sgn + n.y * n.y * a, -n.y);
     } else {
-        n = normalize(frame.eye.xyz - s.position);
+        n = normalize(frame.eye.xyz - position);
         t1 = frame.right.xyz;
         t2 = frame.up.xyz;
     }
-    let world = s.position + s.radius * (uv.x * t1 + uv.y * t2);
+    let world = position + radius * (uv.x * t1 + uv.y * t2);
     var out: SplatOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
+    if frame.options.x > 0.5 && len2 > 1e-12 && dot(n, frame.eye.xyz - position) < 0.0 {
+        out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0); // back-facing: one point outside the view
+    }
     out.uv = uv;
     out.world = world;
     out.normal = n;
-    out.albedo = srgb_to_linear(s.color.rgb);
+    out.albedo = srgb_to_linear(unpack4x8unorm(bitcast<u32>(b.w)).rgb);
     return out;
 }
 

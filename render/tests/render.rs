@@ -450,3 +450,47 @@ fn adapter_is_named() {
     let info = r.adapter_info();
     assert!(info.contains("Vulkan"), "{info}");
 }
+
+#[test]
+fn back_facing_splats_are_culled_only_when_asked() {
+    let mut r = renderer();
+    let cam = framing(0.05);
+    let away = Splat {
+        position: [0.0; 3],
+        normal: [0.0, 0.0, -1.0],
+        radius: 0.02,
+        color: [255; 4],
+    };
+    let drawn = r.render(&[away], &Overlay::default(), &cam).unwrap();
+    assert_ne!(
+        drawn.pixel(W / 2, H / 2),
+        background(),
+        "two-sided by default"
+    );
+    r.set_style(Style {
+        cull_back_facing: true,
+        ..Style::default()
+    });
+    let culled = r.render(&[away], &Overlay::default(), &cam).unwrap();
+    assert_eq!(
+        culled.pixel(W / 2, H / 2),
+        background(),
+        "culled when asked"
+    );
+    // A closed surface with outward normals looks the same either way, bar its silhouette.
+    let ball = sphere(2000, [0.0; 3], 0.05, [150, 150, 220, 255]);
+    let front = r.render(&ball, &Overlay::default(), &cam).unwrap();
+    r.set_style(Style::default());
+    let both = r.render(&ball, &Overlay::default(), &cam).unwrap();
+    assert_eq!(front.pixel(W / 2, H / 2), both.pixel(W / 2, H / 2));
+    let differing = front
+        .rgba
+        .chunks(4)
+        .zip(both.rgba.chunks(4))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(
+        differing < (W * H / 100) as usize,
+        "{differing} pixels differ"
+    );
+}
