@@ -377,11 +377,8 @@ impl Renderer {
         if self.map_state.load(Ordering::Acquire) != MAP_OK {
             return Err(RenderError::Readback(wgpu::BufferAsyncError));
         }
-        {
-            let mapped = t
-                .readback
-                .get_mapped_range(..)
-                .map_err(|_| wgpu::BufferAsyncError)?;
+        // Copy out, then unmap on every path: a buffer left mapped fails the next frame.
+        let copied = t.readback.get_mapped_range(..).map(|mapped| {
             let row = 4 * t.width as usize;
             image.width = t.width;
             image.height = t.height;
@@ -391,9 +388,9 @@ impl Renderer {
                 let start = y * t.padded_row as usize;
                 image.rgba.extend_from_slice(&mapped[start..start + row]);
             }
-        }
+        });
         t.readback.unmap();
-        Ok(())
+        copied.map_err(|_| RenderError::Readback(wgpu::BufferAsyncError))
     }
 
     /// Records one frame into `encoder`: clears `color` (of the renderer's colour format) to the
