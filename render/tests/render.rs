@@ -494,3 +494,15 @@ fn back_facing_splats_are_culled_only_when_asked() {
         "{differing} pixels differ"
     );
 }
+
+#[test]
+fn renderer_can_move_to_a_rendering_thread() {
+    fn assert_send<T: Send + 'static>() {}
+    assert_send::<Renderer>();
+    let mut r = renderer();
+    let img = std::thread::spawn(move || r.render(&[], &Overlay::default(), &framing(0.05)))
+        .join()
+        .unwrap()
+        .unwrap();
+    assert_eq!(img.pixel(0, 0), background());
+}
