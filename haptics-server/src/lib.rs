@@ -6,15 +6,15 @@
 //!   safety stages, and the thin real-time driver thread around it.
 //! - [`telemetry`]: HDR histograms of period and tick cost, counters, session recording.
 //! - [`transport`]: the UDP (TLS-over-TCP control + MAC'd datagrams) and QUIC transports.
-//! - [`client`]: the workstation side of the handshake and hot path, reused by `workstation`.
+//! - [`client`], [`clock`]: re-exported from the `haptics-client` crate (the workstation side of
+//!   the handshake and hot path; the workstation depends on that crate alone).
 //! - [`server`]: [`server::Server::start`] wires a device, the servo thread and a transport;
 //!   tests start servers in-process with it.
 //! - [`config`]: the TOML configuration, validated with field names in every error.
 //! - [`setup`]: config → devices, certificates, servo and network settings.
 //! - [`tls`]: self-signed certificates (`gen-cert`) and the pinned-certificate verifier.
 
-pub mod client;
-pub mod clock;
+pub use haptics_client::{client, clock};
 pub mod config;
 pub mod device;
 pub mod loop_bench;

@@ -48,7 +48,8 @@ struct Cli {
     /// [default: circle, or device.fake.path].
     #[arg(long, value_name = "PATH")]
     fake_path: Option<String>,
-    /// Path file for `--fake-path file`: lines `t_s x y z`.
+    /// Path file for `--fake-path file`: lines `t_s x y z [buttons]` (`workstation demo`
+    /// writes one for its scripted session).
     #[arg(long, value_name = "FILE")]
     fake_path_file: Option<PathBuf>,
     /// Certificate (PEM) [default: $XDG_CONFIG_HOME/haptics-server/cert.pem, created on first

@@ -20,17 +20,7 @@ use crate::telemetry::ServoStats;
 use crate::tls::{self, Identity};
 use crate::transport::{NetSettings, Shared, quic, udp};
 
-/// Which transport serves the workstation.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize, clap::ValueEnum,
-)]
-#[serde(rename_all = "lowercase")]
-pub enum TransportKind {
-    /// TLS-over-TCP control + MAC'd UDP datagrams.
-    Udp,
-    /// QUIC: one bidi stream for control, unreliable datagrams for the hot path.
-    Quic,
-}
+pub use haptics_client::TransportKind;
 
 /// Everything [`Server::start`] needs besides the device.
 #[derive(Debug, Clone)]

@@ -6,39 +6,14 @@
 //! proves possession of its key with a TLS 1.3 signature (checked with ring's algorithms). No
 //! CA, no host-name check: the pin is the identity. TLS 1.3 only; ALPN `haptics/1`.
 
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::path::Path;
 
-use rustls::client::danger::{HandshakeSignatureValid, ServerCertVerified, ServerCertVerifier};
-use rustls::crypto::CryptoProvider;
 use rustls::pki_types::pem::PemObject;
-use rustls::pki_types::{CertificateDer, PrivateKeyDer, ServerName, UnixTime};
-use rustls::{DigitallySignedStruct, SignatureScheme};
+use rustls::pki_types::{CertificateDer, PrivateKeyDer};
 
-/// ALPN protocol id of both transports.
-pub const ALPN: &[u8] = b"haptics/1";
-/// The name the client asks for (the certificate also carries `localhost`).
-pub const SERVER_NAME: &str = "haptics-server";
-
-/// Why a certificate could not be made, read or used.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum TlsError {
-    /// Generating the certificate failed.
-    #[error("certificate generation failed: {0}")]
-    Generate(String),
-    /// Reading or writing a PEM file failed.
-    #[error("{path}: {reason}")]
-    File {
-        /// The file.
-        path: PathBuf,
-        /// What went wrong.
-        reason: String,
-    },
-    /// rustls refused the configuration.
-    #[error("TLS configuration: {0}")]
-    Config(String),
-}
+pub use haptics_client::tls::{
+    ALPN, SERVER_NAME, TlsError, client_config, provider, read_cert, server_name,
+};
 
 /// A certificate and its private key.
 #[derive(Debug)]
@@ -120,14 +95,6 @@ fn pem(label: &str, der: &[u8]) -> String {
     out
 }
 
-/// Read a PEM certificate (the first one in the file).
-pub fn read_cert(path: &Path) -> Result<CertificateDer<'static>, TlsError> {
-    CertificateDer::from_pem_file(path).map_err(|e| TlsError::File {
-        path: path.to_owned(),
-        reason: format!("not a PEM certificate: {e}"),
-    })
-}
-
 /// Read a certificate and its PEM private key.
 pub fn read_identity(cert: &Path, key: &Path) -> Result<Identity, TlsError> {
     let key_der = PrivateKeyDer::from_pem_file(key).map_err(|e| TlsError::File {
@@ -140,11 +107,6 @@ pub fn read_identity(cert: &Path, key: &Path) -> Result<Identity, TlsError> {
     })
 }
 
-/// The ring crypto provider (not aws-lc-rs: no cmake, fast to build).
-pub fn provider() -> Arc<CryptoProvider> {
-    Arc::new(rustls::crypto::ring::default_provider())
-}
-
 /// TLS 1.3 server configuration presenting `id`, ALPN `haptics/1`.
 pub fn server_config(id: &Identity) -> Result<rustls::ServerConfig, TlsError> {
     let mut cfg = rustls::ServerConfig::builder_with_provider(provider())
@@ -155,89 +117,6 @@ pub fn server_config(id: &Identity) -> Result<rustls::ServerConfig, TlsError> {
         .map_err(|e| TlsError::Config(e.to_string()))?;
     cfg.alpn_protocols = vec![ALPN.to_vec()];
     Ok(cfg)
-}
-
-/// TLS 1.3 client configuration that accepts exactly the `pinned` server certificate.
-pub fn client_config(pinned: CertificateDer<'static>) -> Result<rustls::ClientConfig, TlsError> {
-    let provider = provider();
-    let verifier = Arc::new(PinnedCert {
-        pinned,
-        provider: Arc::clone(&provider),
-    });
-    let mut cfg = rustls::ClientConfig::builder_with_provider(provider)
-        .with_protocol_versions(&[&rustls::version::TLS13])
-        .map_err(|e| TlsError::Config(e.to_string()))?
-        .dangerous()
-        .with_custom_certificate_verifier(verifier)
-        .with_no_client_auth();
-    cfg.alpn_protocols = vec![ALPN.to_vec()];
-    Ok(cfg)
-}
-
-/// The server name the client sends (SNI).
-pub fn server_name() -> ServerName<'static> {
-    ServerName::try_from(SERVER_NAME)
-        .unwrap_or_else(|_| ServerName::IpAddress(std::net::Ipv4Addr::LOCALHOST.into()))
-}
-
-/// Accepts only the pinned certificate; signatures checked with the provider's algorithms.
-#[derive(Debug)]
-struct PinnedCert {
-    pinned: CertificateDer<'static>,
-    provider: Arc<CryptoProvider>,
-}
-
-impl ServerCertVerifier for PinnedCert {
-    fn verify_server_cert(
-        &self,
-        end_entity: &CertificateDer<'_>,
-        _intermediates: &[CertificateDer<'_>],
-        _server_name: &ServerName<'_>,
-        _ocsp: &[u8],
-        _now: UnixTime,
-    ) -> Result<ServerCertVerified, rustls::Error> {
-        if end_entity.as_ref() == self.pinned.as_ref() {
-            Ok(ServerCertVerified::assertion())
-        } else {
-            Err(rustls::Error::General(
-                "server certificate does not match the pinned certificate".into(),
-            ))
-        }
-    }
-
-    fn verify_tls12_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls12_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
-    }
-
-    fn verify_tls13_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls13_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
-    }
-
-    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
-        self.provider
-            .signature_verification_algorithms
-            .supported_schemes()
-    }
 }
 
 #[cfg(test)]

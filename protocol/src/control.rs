@@ -161,6 +161,9 @@ pub struct Stats {
     pub watchdog_fades: u64,
     /// Force output is live.
     pub engaged: bool,
+    /// Cursor → force round trip as the server sees it: the arrival of each applied force
+    /// command minus the timestamp of the cursor sample it answers (both server clock), ns.
+    pub force_rtt_ns: Percentiles,
 }
 
 /// Closes a session.

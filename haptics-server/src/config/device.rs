@@ -52,7 +52,7 @@ impl Default for DeviceSection {
 pub struct FakeSection {
     /// `idle`, `circle`, `line`, `press` or `file`.
     pub path: String,
-    /// Path file for `path = "file"` (lines `t_s x y z`).
+    /// Path file for `path = "file"` (lines `t_s x y z [buttons]`).
     pub path_file: Option<PathBuf>,
     /// Tremor seed.
     pub seed: u64,

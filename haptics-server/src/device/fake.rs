@@ -53,13 +53,16 @@ pub enum HandPath {
         /// Seconds held at depth.
         hold_s: f32,
     },
-    /// A recorded path: `(t_s, position)`, linearly interpolated, looped.
-    Recorded(Arc<[(f32, Vec3)]>),
+    /// A recorded or scripted path: `(t_s, position, buttons)`, positions linearly
+    /// interpolated, buttons held from one point to the next; looped.
+    Recorded(Arc<[(f32, Vec3, u16)]>),
 }
 
 impl HandPath {
-    /// Parse a recorded path file: lines `t_s x y z` (whitespace or commas), `#` comments,
-    /// times strictly increasing.
+    /// Parse a recorded path file: lines `t_s x y z [buttons]` (whitespace or commas), `#`
+    /// comments, times strictly increasing; `buttons` (a bit mask, bit 0 = primary, default 0)
+    /// holds until the next line, so a script can press and release the stylus button
+    /// (`workstation demo` writes such files).
     pub fn load(path: &Path) -> Result<HandPath, DeviceError> {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| DeviceError::Parse {
@@ -67,7 +70,7 @@ impl HandPath {
             line: 0,
             reason: e.to_string(),
         })?;
-        let mut points: Vec<(f32, Vec3)> = Vec::new();
+        let mut points: Vec<(f32, Vec3, u16)> = Vec::new();
         for (i, line) in text.lines().enumerate() {
             let line = line.split('#').next().unwrap_or("").trim();
             if line.is_empty() {
@@ -83,19 +86,26 @@ impl HandPath {
                 .filter(|s| !s.is_empty())
                 .map(|s| s.parse::<f32>().map_err(|e| bad(format!("{s:?}: {e}"))))
                 .collect::<Result<_, _>>()?;
-            let [t, x, y, z] = v[..] else {
-                return Err(bad(format!(
-                    "expected 4 numbers (t x y z), got {}",
-                    v.len()
-                )));
+            let (t, x, y, z, b) = match v[..] {
+                [t, x, y, z] => (t, x, y, z, 0.0),
+                [t, x, y, z, b] => (t, x, y, z, b),
+                _ => {
+                    return Err(bad(format!(
+                        "expected 4 or 5 numbers (t x y z [buttons]), got {}",
+                        v.len()
+                    )));
+                }
             };
             if !v.iter().all(|f| f.is_finite()) {
                 return Err(bad("non-finite value".into()));
             }
-            if points.last().is_some_and(|&(t0, _)| t <= t0) {
+            if !(b >= 0.0 && b <= f32::from(u16::MAX) && b.fract() == 0.0) {
+                return Err(bad(format!("buttons {b} is not a 16-bit mask")));
+            }
+            if points.last().is_some_and(|&(t0, _, _)| t <= t0) {
                 return Err(bad("time must increase".into()));
             }
-            points.push((t, Vec3::new(x, y, z)));
+            points.push((t, Vec3::new(x, y, z), b as u16));
         }
         if points.is_empty() {
             return Err(DeviceError::Parse {
@@ -156,8 +166,11 @@ impl HandPath {
                 } as f32;
                 let i = points.partition_point(|p| p.0 <= t);
                 match (i.checked_sub(1).map(|j| points[j]), points.get(i)) {
-                    (Some((t0, a)), Some(&(t1, b))) => (a.lerp(b, (t - t0) / (t1 - t0)), 0),
-                    (Some((_, a)), None) | (None, Some(&(_, a))) => (a, 0),
+                    (Some((t0, a, buttons)), Some(&(t1, b, _))) => {
+                        (a.lerp(b, (t - t0) / (t1 - t0)), buttons)
+                    }
+                    (Some((_, a, buttons)), None) => (a, buttons),
+                    (None, Some(&(_, a, _))) => (a, 0),
                     (None, None) => (Vec3::ZERO, 0),
                 }
             }
@@ -413,8 +426,19 @@ mod tests {
         let path = HandPath::load(&f).unwrap();
         let (p, _) = path.at(0.5);
         assert!((p.x - 0.005).abs() < 1e-6);
+        assert_eq!(path.at(0.5).1, 0, "no button column: released");
         std::fs::write(&f, "0 0 0\n").unwrap();
         let err = HandPath::load(&f).unwrap_err().to_string();
-        assert!(err.contains(":1:") && err.contains("expected 4"), "{err}");
+        assert!(
+            err.contains(":1:") && err.contains("expected 4 or 5"),
+            "{err}"
+        );
+        std::fs::write(&f, "0 0 0 0 1\n1 0 0 0 0\n2 0 0 0 0\n").unwrap();
+        let path = HandPath::load(&f).unwrap();
+        assert_eq!(path.at(0.5).1, 1, "pressed from t = 0 until t = 1");
+        assert_eq!(path.at(1.5).1, 0, "released at t = 1");
+        std::fs::write(&f, "0 0 0 0 1.5\n").unwrap();
+        let err = HandPath::load(&f).unwrap_err().to_string();
+        assert!(err.contains("16-bit mask"), "{err}");
     }
 }

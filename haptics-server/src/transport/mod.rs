@@ -22,7 +22,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use protocol::control::{ControlError, Stats};
+use hdrhistogram::Histogram;
+use protocol::control::Stats;
 use protocol::{Body, Inbound, SessionKey};
 
 use crate::clock::MonoClock;
@@ -51,23 +52,7 @@ impl Default for NetSettings {
     }
 }
 
-/// Why the network side failed.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum TransportError {
-    /// Socket I/O.
-    #[error("I/O: {0}")]
-    Io(#[from] std::io::Error),
-    /// The peer broke the control protocol.
-    #[error("control channel: {0}")]
-    Control(#[from] ControlError),
-    /// The peer took too long.
-    #[error("timed out waiting for {0}")]
-    Timeout(&'static str),
-    /// QUIC connection error.
-    #[error("QUIC: {0}")]
-    Quic(String),
-}
+pub use haptics_client::framing::TransportError;
 
 /// One session's hot-path state, shared by the control task and the packet receiver.
 #[derive(Debug)]
@@ -79,6 +64,8 @@ pub struct HotState {
     last_activity_ns: AtomicU64,
     ended: AtomicBool,
     peer: Mutex<Option<std::net::SocketAddr>>,
+    /// Cursor → force round trips of applied commands, ns (see `Stats::force_rtt_ns`).
+    force_rtt: Mutex<Histogram<u64>>,
 }
 
 /// Everything the network tasks share.
@@ -173,6 +160,13 @@ impl Shared {
                     // A command that arrived after a newer one is superseded: counted, not applied.
                     Body::Force(_) if newest != Some(packet.sequence) => true,
                     Body::Force(cmd) => {
+                        // Echoed cursor stamps are from our clock; 0 means "answers nothing".
+                        if cmd.answers_timestamp_ns != 0
+                            && cmd.answers_timestamp_ns <= now
+                            && let Ok(mut h) = hot.force_rtt.lock()
+                        {
+                            h.saturating_record(now - cmd.answers_timestamp_ns);
+                        }
                         if let Ok(mut link) = self.link.lock() {
                             // Drained every tick; full only if the servo thread is stuck.
                             let _ = link.commands.push((cmd, now));
@@ -218,6 +212,11 @@ impl Shared {
             clamped_ticks: servo.clamped_ticks,
             watchdog_fades: servo.watchdog_fades,
             engaged: servo.engaged,
+            force_rtt_ns: hot
+                .force_rtt
+                .lock()
+                .map(|h| crate::telemetry::percentiles(&h))
+                .unwrap_or_default(),
         };
         if let Ok(mut last) = self.last_stats.lock() {
             *last = stats;
@@ -249,6 +248,7 @@ impl Shared {
             last_activity_ns: AtomicU64::new(self.clock.now_ns()),
             ended: AtomicBool::new(false),
             peer: Mutex::new(None),
+            force_rtt: Mutex::new(rtt_histogram()),
         });
         *active = Some(Arc::clone(&hot));
         Some(hot)
@@ -264,6 +264,11 @@ impl Shared {
         }
         self.servo(ServoMsg::End);
     }
+}
+
+/// 1 µs to 10 s at 3 significant digits; allocated once per session.
+fn rtt_histogram() -> Histogram<u64> {
+    Histogram::new_with_bounds(1_000, 10_000_000_000, 3).expect("static histogram bounds")
 }
 
 impl HotState {

@@ -8,38 +8,12 @@ use std::time::Duration;
 
 use protocol::control::{ClockPong, ControlError, ErrorCode, ErrorMessage, Welcome};
 use protocol::{Control, FrameDecoder, PROTOCOL_VERSION, SessionKey};
-use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite};
 
 use super::{HotState, Shared, TransportError};
 use crate::servo::SessionEvent;
 use crate::servo::driver::ServoMsg;
-
-/// Write one control message.
-pub async fn write_control<W: AsyncWrite + Unpin>(
-    wr: &mut W,
-    msg: &Control,
-) -> std::io::Result<()> {
-    wr.write_all(&msg.to_frame()).await?;
-    wr.flush().await
-}
-
-/// Read the next control message; `Ok(None)` when the stream closed cleanly.
-pub async fn read_control<R: AsyncRead + Unpin>(
-    rd: &mut R,
-    dec: &mut FrameDecoder,
-) -> Result<Option<Control>, TransportError> {
-    let mut buf = [0u8; 4096];
-    loop {
-        if let Some(msg) = dec.next_message()? {
-            return Ok(Some(msg));
-        }
-        let n = rd.read(&mut buf).await?;
-        if n == 0 {
-            return Ok(None);
-        }
-        dec.push(&buf[..n]);
-    }
-}
+pub use haptics_client::framing::{read_control, write_control};
 
 fn error(code: ErrorCode, message: impl Into<String>) -> Control {
     Control::Error(ErrorMessage {

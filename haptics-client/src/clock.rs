@@ -1,7 +1,8 @@
-//! The server's monotonic clock: nanoseconds since an epoch fixed at construction.
+//! A monotonic clock: nanoseconds since an epoch fixed at construction.
 //!
-//! One [`MonoClock`] is shared (by copy) between the servo thread and the network side, so a
-//! command's arrival stamp and the servo tick's `now` are on the same time base.
+//! In the server one [`MonoClock`] is shared (by copy) between the servo thread and the network
+//! side, so a command's arrival stamp and the servo tick's `now` are on the same time base; in
+//! the workstation the hot path's clock stamps force commands and clock pings alike.
 
 use std::time::Instant;
 

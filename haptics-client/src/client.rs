@@ -1,10 +1,10 @@
 //! The workstation side of a session, over either transport: handshake, control channel and
 //! hot path. The `workstation` crate connects through this; tests drive servers with it.
+//! `haptics-server` re-exports this module as `haptics_server::client`.
 //!
 //! ```no_run
-//! # async fn demo(cert: rustls::pki_types::CertificateDer<'static>) -> Result<(), haptics_server::client::ClientError> {
-//! use haptics_server::client::{Client, ClientConfig};
-//! use haptics_server::server::TransportKind;
+//! # async fn demo(cert: rustls::pki_types::CertificateDer<'static>) -> Result<(), haptics_client::ClientError> {
+//! use haptics_client::{Client, ClientConfig, TransportKind};
 //! let cfg = ClientConfig::new("127.0.0.1:7700".parse().unwrap(), TransportKind::Udp, cert);
 //! let mut client = Client::connect(&cfg).await?;
 //! let cursor = client.hot.recv_cursor().await?;        // one CursorSample per servo tick
@@ -34,10 +34,10 @@ use protocol::{
 use rustls::pki_types::CertificateDer;
 use tokio::io::{AsyncRead, AsyncWrite};
 
+use crate::TransportKind;
 use crate::clock::MonoClock;
-use crate::server::TransportKind;
-use crate::tls;
-use crate::transport::{TransportError, quic, read_control, write_control};
+use crate::framing::{TransportError, read_control, write_control};
+use crate::{quic, tls};
 
 /// How to reach a server.
 #[derive(Debug, Clone)]
@@ -287,6 +287,126 @@ impl HotPath {
     /// The sequence number the next force command will carry.
     pub fn next_sequence(&self) -> u32 {
         self.outbound.next_sequence()
+    }
+    /// Split into a receiver for the network task and a sender a force-mapping thread owns
+    /// (call once the stream is up: after the first [`HotPath::recv_cursor`], so the UDP opener
+    /// is no longer needed). Sequence numbers continue from this hot path's.
+    pub fn split(self) -> (HotReceiver, HotSender) {
+        let (recv, send) = match self.socket {
+            HotSocket::Udp(r, s) => (ReceiverSocket::Udp(r), SenderSocket::Udp(s)),
+            HotSocket::Quic(c, e) => (ReceiverSocket::Quic(c.clone(), e), SenderSocket::Quic(c)),
+        };
+        (
+            HotReceiver {
+                socket: recv,
+                inbound: self.inbound,
+            },
+            HotSender {
+                socket: send,
+                outbound: self.outbound,
+                clock: self.clock,
+                buf: self.buf,
+            },
+        )
+    }
+}
+
+enum ReceiverSocket {
+    Udp(tokio::net::UdpSocket),
+    Quic(quinn::Connection, #[allow(dead_code)] quinn::Endpoint),
+}
+
+enum SenderSocket {
+    Udp(std::net::UdpSocket),
+    Quic(quinn::Connection),
+}
+
+/// The receiving half of a split [`HotPath`] (async, for the network task).
+pub struct HotReceiver {
+    socket: ReceiverSocket,
+    inbound: Inbound,
+}
+
+impl std::fmt::Debug for HotReceiver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HotReceiver")
+            .field("session", &self.inbound.session())
+            .finish()
+    }
+}
+
+impl HotReceiver {
+    /// The next authentic cursor packet; [`ClientError::Closed`] when a QUIC connection ends.
+    pub async fn recv_cursor(&mut self) -> Result<(Packet, CursorSample), ClientError> {
+        let mut buf = [0u8; MAX_PACKET_BYTES + 1];
+        loop {
+            let n = match &self.socket {
+                ReceiverSocket::Udp(s) => s.recv(&mut buf).await?,
+                ReceiverSocket::Quic(c, _) => {
+                    let d = c.read_datagram().await.map_err(|_| ClientError::Closed)?;
+                    let n = d.len().min(buf.len());
+                    buf[..n].copy_from_slice(&d[..n]);
+                    n
+                }
+            };
+            if let Ok(p) = self.inbound.accept(&buf[..n])
+                && let Body::Cursor(c) = p.body
+            {
+                return Ok((p, c));
+            }
+        }
+    }
+
+    /// Rejected incoming packets by reason.
+    pub fn rejects(&self) -> &RejectCounts {
+        self.inbound.rejects()
+    }
+}
+
+/// The sending half of a split [`HotPath`]: synchronous and non-blocking, so a force-mapping
+/// thread owns it and sends without a runtime. Encoding reuses one buffer (no allocation on
+/// UDP; quinn copies each datagram into a `Bytes`).
+pub struct HotSender {
+    socket: SenderSocket,
+    outbound: Outbound,
+    clock: MonoClock,
+    buf: [u8; MAX_PACKET_BYTES],
+}
+
+impl std::fmt::Debug for HotSender {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HotSender")
+            .field("next_sequence", &self.outbound.next_sequence())
+            .finish()
+    }
+}
+
+impl HotSender {
+    /// Send a force command now; a full socket buffer drops it (a newer one follows, and the
+    /// server's watchdog covers a gap). [`ClientError::Closed`] when the connection is gone.
+    pub fn send_force(&mut self, cmd: &ForceCommand) -> Result<(), ClientError> {
+        let len = self
+            .outbound
+            .encode(self.clock.now_ns(), Body::Force(*cmd), &mut self.buf);
+        let bytes = &self.buf[..len];
+        let sent = match &self.socket {
+            SenderSocket::Udp(s) => s.send(bytes).map(|_| ()).map_err(ClientError::Io),
+            SenderSocket::Quic(c) => c
+                .send_datagram(bytes::Bytes::copy_from_slice(bytes))
+                .map_err(|e| match e {
+                    quinn::SendDatagramError::ConnectionLost(_) => ClientError::Closed,
+                    e => ClientError::Quic(e.to_string()),
+                }),
+        };
+        match sent {
+            Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
+            other => other,
+        }
+    }
+
+    /// The clock that stamps the commands.
+    pub fn clock(&self) -> MonoClock {
+        self.clock
     }
 }
 
