@@ -12,7 +12,7 @@ use sim_core::tools::Rope;
 use sim_core::tools::emboss::{Emboss, GreyImage, emboss};
 use sim_core::tools::paint::{Brush, edge_insertions, paint};
 
-use super::script::{Op, profile_of};
+use super::script::{Op, Release, profile_of};
 use super::{fit_object, point_set};
 
 fn solid_of(o: &SceneObject) -> Solid<'_> {
@@ -45,6 +45,7 @@ pub(super) fn run_op(
             table,
             sheet,
             steps,
+            release,
         } => {
             let start: Vec<DVec3> = path.iter().map(|p| DVec3::from(*p)).collect();
             let end: Vec<DVec3> = path_end.as_ref().map_or(start.clone(), |e| {
@@ -72,10 +73,17 @@ pub(super) fn run_op(
                 stranded = stranded.max(r.follow.stranded);
                 moved += r.follow.visited;
             }
+            let released = match release {
+                Release::Commit => format!(
+                    "released: shape committed, {} local fields refitted",
+                    scene.end_stroke()?
+                ),
+                Release::SpringBack => "released elastically".to_owned(),
+            };
             (
                 "rope",
                 format!(
-                    "{steps} steps; {moved} point updates; max residual {residual:.2e} m; {stranded} stranded"
+                    "{steps} steps; {moved} point updates; max residual {residual:.2e} m; {stranded} stranded; {released}"
                 ),
             )
         }

@@ -105,6 +105,19 @@ fn default_dt() -> f64 {
     1e-3
 }
 
+/// What a tool leaves behind when it lets go.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Release {
+    /// Plastic: the deformed field becomes the new rest state (the shape stays), as a
+    /// sculptor expects. What the device-driven tools do too.
+    #[default]
+    Commit,
+    /// Elastic: nothing is committed; the field springs back over the following steps unless
+    /// an `end_stroke` commits it first.
+    SpringBack,
+}
+
 /// One operation.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -127,6 +140,9 @@ pub enum Op {
         sheet: Option<[f64; 3]>,
         /// Steps to run.
         steps: usize,
+        /// What happens when the rope lets go after its steps.
+        #[serde(default)]
+        release: Release,
     },
     /// Steps without tools.
     Relax {

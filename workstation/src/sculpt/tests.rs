@@ -171,3 +171,45 @@ fn non_finite_and_inconsistent_values_are_caught_before_any_work() {
         assert!(msg.contains(needle), "`{msg}` lacks `{needle}`");
     }
 }
+
+/// Largest `| |p| − r |` over the points of `file`.
+fn radial_deviation(file: &std::path::Path, r: f64) -> f64 {
+    let f = std::fs::File::open(file).unwrap();
+    let loaded = sim_core::io::read(std::io::BufReader::new(f), sim_core::io::Format::Ply).unwrap();
+    loaded
+        .points
+        .positions
+        .iter()
+        .map(|p| (p.length() - r).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn a_released_rope_leaves_its_ridge_and_spring_back_does_not() {
+    // drag.toml as shipped: the rope lets go (plastic commit), 50 relax steps follow.
+    let text = EXAMPLES.iter().find(|(n, _)| *n == "drag").unwrap().1;
+    let text = text.replace("steps = 150", "steps = 60");
+    let tmp = std::env::temp_dir().join(format!("sculpt-drag-{}", std::process::id()));
+    let kept = run_script(
+        &Script::parse(&text).unwrap(),
+        std::path::Path::new("."),
+        &tmp,
+    );
+    kept.unwrap();
+    let ridge = radial_deviation(&tmp.join("ball.ply"), 0.05);
+    // Static bump of a constant rope: strength / anchor = 0.3 N / 100 N/m = 3 mm.
+    assert!(ridge > 1.5e-3, "ridge after release and relax: {ridge:e} m");
+    let elastic = text.replace(
+        "profile = \"constant\"\n",
+        "profile = \"constant\"\nrelease = \"spring_back\"\n",
+    );
+    // Without the commit, 50 relax steps let the ridge fall back most of the way.
+    let script = Script::parse(&elastic.replace("steps = 50", "steps = 400")).unwrap();
+    run_script(&script, std::path::Path::new("."), &tmp).unwrap();
+    let back = radial_deviation(&tmp.join("ball.ply"), 0.05);
+    assert!(
+        back < ridge / 3.0,
+        "spring back left {back:e} m (ridge {ridge:e} m)"
+    );
+    let _ = std::fs::remove_dir_all(&tmp);
+}
