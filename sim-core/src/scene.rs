@@ -23,7 +23,7 @@ use crate::local_fit::FitParams;
 use crate::pointset::PointSet;
 use crate::reconstruct::{IgnoreStages, NormalPolicy, ReconstructError, reconstruct};
 use crate::resample::{UpsampleOptions, upsample_at};
-use crate::tools::{Rope, ToolError};
+use crate::tools::{GridTool, Rope, ToolError};
 
 mod edit;
 
@@ -315,6 +315,25 @@ impl Scene {
         self.step_observed(dt, ropes, &mut ())
     }
 
+    /// One step with any mix of tools (ropes, the sculpting probe, …), applied in order.
+    pub fn step_with(
+        &mut self,
+        dt: f64,
+        tools: &[&dyn GridTool],
+    ) -> Result<SculptStepReport, SceneError> {
+        self.step_inner(
+            dt,
+            &mut |model| {
+                let mut n = 0;
+                for t in tools {
+                    n += t.apply(model)?;
+                }
+                Ok(n)
+            },
+            &mut (),
+        )
+    }
+
     /// [`Scene::step`], telling `observer` as each stage ends.
     pub fn step_observed(
         &mut self,
@@ -322,13 +341,29 @@ impl Scene {
         ropes: &[Rope],
         observer: &mut dyn StepObserver,
     ) -> Result<SculptStepReport, SceneError> {
+        self.step_inner(
+            dt,
+            &mut |model| {
+                let mut n = 0;
+                for rope in ropes {
+                    n += rope.apply(model)?;
+                }
+                Ok(n)
+            },
+            observer,
+        )
+    }
+
+    fn step_inner(
+        &mut self,
+        dt: f64,
+        tools: &mut dyn FnMut(&mut DynamicGrid) -> Result<usize, ToolError>,
+        observer: &mut dyn StepObserver,
+    ) -> Result<SculptStepReport, SceneError> {
         let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
         let obj = &mut self.objects[region.object];
         region.model.clear_forces();
-        let mut tool_nodes = 0;
-        for rope in ropes {
-            tool_nodes += rope.apply(&mut region.model)?;
-        }
+        let tool_nodes = tools(&mut region.model)?;
         observer.stage_done(SculptStage::Tools);
         let step = region.stepper.step(&mut region.model, dt)?;
         observer.stage_done(SculptStage::Integrate);

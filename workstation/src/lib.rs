@@ -6,6 +6,7 @@
 pub mod bench_force;
 pub mod bench_sim;
 pub mod fit;
+pub mod live;
 pub mod logging;
 pub mod scenes;
 pub mod sculpt;

@@ -20,6 +20,15 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// The networked demo: an in-process haptics server with a fake device on loopback, a
+    /// scripted session (rope, paint, probe, CSG, emboss) through the real network path;
+    /// writes summary.json, final.ply, final_mesh.* and PNG frames to --out.
+    Demo(workstation::live::demo::DemoArgs),
+    /// Run the workstation against a haptics server: network, force-mapping, simulation and
+    /// rendering threads on a scene; saves the model on exit (Ctrl-C or --seconds).
+    Run(workstation::live::run::RunArgs),
+    /// Write a scene's strokes as a fake-device path file for `haptics-server --fake-path file`.
+    HandPath(workstation::live::run::HandPathArgs),
     /// Print what this build can do and how to start.
     Status,
     /// Fit points (a file or gen:sphere:R:N) into an implicit surface; time it, measure its error.
@@ -46,6 +55,9 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Demo(args) => workstation::live::demo::run(&args).map(|_| ()),
+        Command::Run(args) => workstation::live::run::run(&args),
+        Command::HandPath(args) => workstation::live::run::hand_path_command(&args),
         Command::Fit(args) => {
             let report = workstation::fit::run(&args)?;
             workstation::fit::print(&report, args.json)

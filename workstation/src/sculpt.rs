@@ -4,7 +4,7 @@
 //!
 //! The script format is in [`script`] and documented in `examples/sculpt/README.md`.
 
-mod ops;
+pub(crate) mod ops;
 pub mod script;
 #[cfg(test)]
 mod tests;
@@ -136,7 +136,7 @@ pub fn run_script(script: &Script, dir: &Path, out: &Path) -> anyhow::Result<Scu
     Ok(report)
 }
 
-fn region_params(r: &RegionSpec) -> RegionParams {
+pub(crate) fn region_params(r: &RegionSpec) -> RegionParams {
     let integrator = match r.integrator.as_str() {
         "forward_euler" => Integrator::forward_euler(r.accel_threshold),
         "backward_euler" => Integrator::backward_euler(),
@@ -150,7 +150,11 @@ fn region_params(r: &RegionSpec) -> RegionParams {
     }
 }
 
-fn load_object(spec: &ObjectSpec, dir: &Path, fit: &FitParams) -> anyhow::Result<SceneObject> {
+pub(crate) fn load_object(
+    spec: &ObjectSpec,
+    dir: &Path,
+    fit: &FitParams,
+) -> anyhow::Result<SceneObject> {
     let mut points = match (&spec.file, &spec.generate) {
         (Some(file), _) => {
             let path = dir.join(file);

@@ -1,5 +1,6 @@
 //! Sculpting tools (DESIGN §4): each turns a user action into forces on the dynamic model
-//! ([`rope`]), colours on points ([`paint`]), or point displacements ([`emboss`]).
+//! ([`rope`], [`probe_sculpt`]; both are [`GridTool`]s), colours on points ([`paint`]), or point
+//! displacements ([`emboss`]).
 //!
 //! Contract: tools are plain values (usable from a script or a device driver); applying one
 //! touches only the nodes or points within its reach, allocates nothing per call beyond the
@@ -7,9 +8,26 @@
 
 pub mod emboss;
 pub mod paint;
+pub mod probe_sculpt;
 pub mod rope;
 
+pub use probe_sculpt::{ProbeMode, ProbeSculpt};
 pub use rope::{Profile, Rope};
+
+use crate::dynamics::DynamicGrid;
+
+/// A tool that acts on the dynamic field through node forces, once per step (after the forces
+/// are cleared). [`crate::scene::Scene::step_with`] applies any mix of them.
+pub trait GridTool {
+    /// Add this tool's forces; returns how many nodes it touched.
+    fn apply(&self, model: &mut DynamicGrid) -> Result<usize, ToolError>;
+}
+
+impl GridTool for Rope {
+    fn apply(&self, model: &mut DynamicGrid) -> Result<usize, ToolError> {
+        Rope::apply(self, model)
+    }
+}
 
 /// Why a tool could not be applied.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

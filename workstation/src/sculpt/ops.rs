@@ -25,7 +25,7 @@ fn solid_of(o: &SceneObject) -> Solid<'_> {
 }
 
 /// Run `op`; returns its kind and a one-line summary.
-pub(super) fn run_op(
+pub(crate) fn run_op(
     scene: &mut Scene,
     names: &mut Vec<String>,
     op: &Op,

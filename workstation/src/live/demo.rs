@@ -1,0 +1,385 @@
+//! `workstation demo`: the networked demo, README command 1.
+//!
+//! Starts a `haptics-server` with the fake device on loopback in this process (its own servo
+//! and network threads, real sockets; or connects to one with `--server`), whose simulated hand
+//! follows the scene's strokes ([`hand_path`]); starts the workstation's threads against it;
+//! drives the session's phases ([`drive_phases`]: each stroke ends when the button lets go, each
+//! operation runs on the simulation thread); prints a line per phase; writes `summary.json`,
+//! `final.ply`, `final_mesh.{ply,obj,stl}` and PNG frames into `--out`.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use glam::{DVec3, Vec3};
+use haptics_client::TransportKind;
+use serde::Serialize;
+
+use super::net::NetConfig;
+use super::scene_file::{SceneFile, ToolKind};
+use super::shared::PercentilesUs;
+use super::sim::SimReport;
+use super::{LiveStats, Workstation, save};
+
+/// The built-in demo scene (`examples/live/demo.toml`).
+pub const DEMO_SCENE: &str = include_str!("../../../examples/live/demo.toml");
+/// The image it embosses.
+pub const DEMO_IMAGE: &[u8] = include_bytes!("../../../examples/live/ring.png");
+/// Seconds the hand rests before the first stroke (the session comes up meanwhile).
+pub const LEAD_IN_S: f64 = 1.5;
+
+/// Arguments of `workstation demo`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct DemoArgs {
+    /// Connect to this running server instead of starting one in-process. Its fake device must
+    /// follow the demo's hand path: `workstation hand-path` writes it, then
+    /// `haptics-server --device fake --fake-path file --fake-path-file FILE`.
+    #[arg(long, value_name = "ADDR")]
+    pub server: Option<SocketAddr>,
+    /// The server's certificate (PEM) to pin; required with --server.
+    #[arg(long, value_name = "FILE", requires = "server")]
+    pub cert: Option<PathBuf>,
+    /// Transport.
+    #[arg(long, value_enum, default_value_t = TransportKind::Udp)]
+    pub transport: TransportKind,
+    /// Scene file [default: the built-in demo, examples/live/demo.toml].
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, default_value = "out/demo")]
+    pub out: PathBuf,
+    /// Give up after this many seconds.
+    #[arg(long, default_value_t = 110.0)]
+    pub timeout_s: f64,
+}
+
+/// What one phase did.
+#[derive(Debug, Clone, Serialize)]
+pub struct PhaseReport {
+    /// As in the scene.
+    pub name: String,
+    /// `stroke:<tool>` or `op:<kind>`.
+    pub kind: String,
+    /// What it did.
+    pub summary: String,
+    /// Wall time (s).
+    pub seconds: f64,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    /// PNG frames written.
+    pub frames: u64,
+    /// Force-mapping ticks per second over the session.
+    pub force_loop_hz: f64,
+    /// Its tick-to-tick period (µs).
+    pub force_loop_period_us: PercentilesUs,
+    /// Simulation steps per second.
+    pub sim_hz: f64,
+    /// Cursor → force round trip measured at the server (µs).
+    pub rtt_us: PercentilesUs,
+    /// Points in the final model.
+    pub points: usize,
+    /// Triangles of its meshed zero set.
+    pub triangles: usize,
+    /// The phases, in order.
+    pub phases: Vec<PhaseReport>,
+    /// Transport used.
+    pub transport: TransportKind,
+    /// Server address.
+    pub server: SocketAddr,
+    /// Wall time of the session (s).
+    pub seconds: f64,
+    /// Everything else measured.
+    pub stats: LiveStats,
+}
+
+/// The fake hand's path for the scene's strokes, in the device frame: rest lifted above the
+/// first stroke for `lead_in_s`, then per stroke: travel (button up, via points lifted away
+/// from the region's centre so the hand does not cut through the object), press at the first
+/// waypoint, follow the waypoints over `seconds`, release, rest. Ends with a long rest (the
+/// server loops recorded paths).
+pub fn hand_path(scene: &SceneFile, lead_in_s: f64) -> Vec<(f32, Vec3, u16)> {
+    let t = scene.device.transform();
+    let (lo, hi) = (DVec3::from(scene.region.min), DVec3::from(scene.region.max));
+    let centre = 0.5 * (lo + hi);
+    let lift = |p: DVec3| centre + (p - centre) * 1.6;
+    let dev = |p: DVec3| t.point_to_device(p).as_vec3();
+    let strokes: Vec<_> = scene
+        .phase
+        .iter()
+        .filter_map(|p| p.stroke.as_ref())
+        .collect();
+    let mut out = Vec::new();
+    let Some(first) = strokes.first() else {
+        return vec![(0.0, dev(lift(lo.max(hi))), 0)];
+    };
+    let mut time = 0.0f64;
+    let mut at = lift(DVec3::from(first.path[0]));
+    let mut push = |time: f64, p: DVec3, b: u16| out.push((time as f32, dev(p), b));
+    push(0.0, at, 0);
+    time += lead_in_s;
+    push(time, at, 0);
+    for s in strokes {
+        let start = DVec3::from(s.path[0]);
+        time += 0.5 * s.travel_s;
+        push(time, lift(start), 0);
+        time += 0.5 * s.travel_s;
+        push(time, start, 0);
+        time += 0.1;
+        push(time, start, 1);
+        let n = s.path.len();
+        let dt = if n > 1 {
+            s.seconds / (n - 1) as f64
+        } else {
+            s.seconds
+        };
+        for (k, p) in s.path.iter().enumerate().skip(usize::from(n > 1)) {
+            time += dt;
+            // Held until the next point: the last waypoint releases.
+            push(time, DVec3::from(*p), u16::from(k + 1 < n));
+        }
+        let end = DVec3::from(s.path[n - 1]);
+        if n == 1 {
+            time += 0.05;
+            push(time, end, 0);
+        }
+        time += s.rest_s.max(0.05);
+        at = lift(end);
+        push(time, at, 0);
+    }
+    push(time + 1e5, at, 0);
+    out
+}
+
+/// Write `hand_path` as the server's path file (`t x y z buttons` per line).
+pub fn write_hand_path(path: &Path, points: &[(f32, Vec3, u16)]) -> anyhow::Result<()> {
+    let mut text = String::from("# t_s x y z buttons (workstation hand-path)\n");
+    for (t, p, b) in points {
+        text.push_str(&format!("{t} {} {} {} {b}\n", p.x, p.y, p.z));
+    }
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Run the scene's phases in order: tools for the strokes are queued for the button presses,
+/// each stroke phase ends when the simulation reports its release, each operation runs on the
+/// simulation thread. `progress` is called as each phase ends.
+pub fn drive_phases(
+    ws: &Workstation,
+    scene: &SceneFile,
+    deadline: Instant,
+    mut progress: impl FnMut(usize, &PhaseReport),
+) -> anyhow::Result<Vec<PhaseReport>> {
+    let tools: Vec<ToolKind> = scene
+        .phase
+        .iter()
+        .filter_map(|p| p.stroke.as_ref().map(|s| s.tool))
+        .collect();
+    ws.queue_tools(tools)?;
+    let mut reports = Vec::new();
+    let mut t0 = Instant::now();
+    for (i, phase) in scene.phase.iter().enumerate() {
+        let report = if let Some(stroke) = &phase.stroke {
+            let done = loop {
+                anyhow::ensure!(
+                    Instant::now() < deadline,
+                    "phase `{}`: the stroke did not end before the deadline (is the device following the hand path? connected: {})",
+                    phase.name,
+                    ws.connected()
+                );
+                match ws.next_report(Duration::from_millis(100)) {
+                    Some(SimReport::Stroke(s)) => break s,
+                    Some(SimReport::Failed(e)) => anyhow::bail!("simulation failed: {e}"),
+                    None => {}
+                }
+            };
+            PhaseReport {
+                name: phase.name.clone(),
+                kind: format!("stroke:{}", stroke.tool.name()),
+                summary: done.summary,
+                seconds: t0.elapsed().as_secs_f64(),
+            }
+        } else if let Some(op) = &phase.op {
+            let summary = ws
+                .run_op(op)
+                .with_context(|| format!("phase `{}`", phase.name))?;
+            PhaseReport {
+                name: phase.name.clone(),
+                kind: format!("op:{}", op_kind(op)),
+                summary,
+                seconds: t0.elapsed().as_secs_f64(),
+            }
+        } else {
+            continue;
+        };
+        progress(i, &report);
+        reports.push(report);
+        t0 = Instant::now();
+    }
+    Ok(reports)
+}
+
+fn op_kind(op: &crate::sculpt::script::Op) -> String {
+    format!("{op:?}")
+        .split([' ', '{', '('])
+        .next()
+        .unwrap_or("op")
+        .to_lowercase()
+}
+
+/// Run the demo; see the module doc.
+pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
+    let started = Instant::now();
+    let deadline = started + Duration::from_secs_f64(args.timeout_s.max(1.0));
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let (text, dir) = match &args.scene {
+        Some(p) => (
+            std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
+            p.parent()
+                .map_or_else(|| PathBuf::from("."), Path::to_path_buf),
+        ),
+        None => {
+            std::fs::write(args.out.join("ring.png"), DEMO_IMAGE)?;
+            (DEMO_SCENE.to_owned(), args.out.clone())
+        }
+    };
+    let scene = SceneFile::parse(&text).map_err(|e| anyhow::anyhow!("scene: {e}"))?;
+    let path = hand_path(&scene, LEAD_IN_S);
+    write_hand_path(&args.out.join("hand_path.txt"), &path)?;
+    let n_phases = scene.phase.len();
+    println!(
+        "demo: {} phases; fitting the scene's objects (relative files from {})",
+        n_phases,
+        dir.display()
+    );
+    // Fit first (seconds), then start the server: the hand's clock starts with the server.
+    let server_and_cfg = |_: ()| -> anyhow::Result<(Option<ServerGuard>, NetConfig)> {
+        match (args.server, &args.cert) {
+            (Some(server), Some(cert)) => Ok((
+                None,
+                NetConfig {
+                    server,
+                    transport: args.transport,
+                    cert: haptics_client::tls::read_cert(cert)?,
+                },
+            )),
+            (Some(_), None) => anyhow::bail!("--server needs --cert (the server's certificate)"),
+            (None, _) => embedded_server(args.transport, path.clone()),
+        }
+    };
+    let frames_dir = args.out.join("frames");
+    let _ = std::fs::remove_dir_all(&frames_dir);
+    let ws_and_server = {
+        let core_scene = scene.clone();
+        let (server, cfg) = server_and_cfg(())?;
+        let addr = cfg.server;
+        let ws = Workstation::start(&core_scene, dir, cfg, Some(frames_dir))?;
+        (ws, server, addr)
+    };
+    let (ws, server, addr) = ws_and_server;
+    ws.wait_connected(Duration::from_secs(10))?;
+    println!(
+        "demo: connected to {addr} over {:?}{}",
+        args.transport,
+        if server.is_some() {
+            " (in-process haptics server, fake device)"
+        } else {
+            ""
+        }
+    );
+    ws.shared
+        .force_loop
+        .reset
+        .store(true, std::sync::atomic::Ordering::Relaxed);
+    let phases = drive_phases(&ws, &scene, deadline, |i, r| {
+        println!(
+            "[{}/{n_phases}] {} ({}, {:.1} s): {}",
+            i + 1,
+            r.name,
+            r.kind,
+            r.seconds,
+            r.summary
+        );
+    })?;
+    // One last frame of the result.
+    std::thread::sleep(Duration::from_secs_f64(scene.render.interval_s * 1.5));
+    let stats = ws.stats();
+    let core = ws.finish()?;
+    drop(server);
+    let saved = save(&core, &args.out, scene.mesh_resolution)?;
+    let summary = Summary {
+        frames: stats.frames,
+        force_loop_hz: stats.force_loop_hz,
+        force_loop_period_us: stats.force_loop_period_us,
+        sim_hz: stats.sim_hz,
+        rtt_us: stats.rtt_us,
+        points: saved.points,
+        triangles: saved.triangles,
+        phases,
+        transport: args.transport,
+        server: addr,
+        seconds: started.elapsed().as_secs_f64(),
+        stats,
+    };
+    std::fs::write(
+        args.out.join("summary.json"),
+        serde_json::to_string_pretty(&summary)?,
+    )?;
+    println!(
+        "demo: done in {:.1} s. force loop {:.0} Hz (period p50 {:.0} µs, p99 {:.0} µs), simulation {:.0} Hz, cursor→force round trip p50 {:.0} µs p99 {:.0} µs, {} frames; wrote {}",
+        summary.seconds,
+        summary.force_loop_hz,
+        summary.force_loop_period_us.p50,
+        summary.force_loop_period_us.p99,
+        summary.sim_hz,
+        summary.rtt_us.p50,
+        summary.rtt_us.p99,
+        summary.frames,
+        args.out.display()
+    );
+    Ok(summary)
+}
+
+/// Keeps the in-process server alive.
+#[cfg(feature = "demo-server")]
+type ServerGuard = haptics_server::server::Server;
+#[cfg(not(feature = "demo-server"))]
+type ServerGuard = ();
+
+/// A server with the fake device following `path`, on loopback, port chosen by the OS.
+#[cfg(feature = "demo-server")]
+pub fn embedded_server(
+    transport: TransportKind,
+    path: Vec<(f32, Vec3, u16)>,
+) -> anyhow::Result<(Option<ServerGuard>, NetConfig)> {
+    use haptics_server::device::fake::{FakeDevice, FakeParams, HandPath};
+    use haptics_server::server::{Server, ServerOptions};
+    let device = FakeDevice::new(FakeParams {
+        path: HandPath::Recorded(path.into()),
+        ..FakeParams::default()
+    });
+    let mut opts = ServerOptions::for_tests(transport)?;
+    // Real-time servo when the OS allows it (else it warns and runs SCHED_OTHER).
+    opts.driver.rt.fifo_priority = Some(super::force::SERVO_FIFO_PRIORITY);
+    let server = Server::start(device, opts)?;
+    let cfg = NetConfig {
+        server: server.local_addr(),
+        transport,
+        cert: server.certificate(),
+    };
+    Ok((Some(server), cfg))
+}
+
+/// Built without the `demo-server` feature: a server must be given.
+#[cfg(not(feature = "demo-server"))]
+pub fn embedded_server(
+    _transport: TransportKind,
+    _path: Vec<(f32, Vec3, u16)>,
+) -> anyhow::Result<(Option<ServerGuard>, NetConfig)> {
+    anyhow::bail!(
+        "this workstation was built without the in-process server (feature `demo-server`): give --server and --cert"
+    )
+}

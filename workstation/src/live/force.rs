@@ -1,0 +1,457 @@
+//! The force-mapping thread (seed 000 Fig. 7): newest cursor + newest snapshot → force and local
+//! model → the socket, once per cursor sample, never waiting for the simulation.
+//!
+//! [`ForceMapper`] is the deterministic core (no I/O, no clock): one [`ForceMapper::tick`] maps a
+//! cursor through the device-to-scene transform, asks the tool's haptic query in scene units
+//! (sim-core's field force with VCP and friction for touch and paint, an anchor spring for the
+//! rope, the shaped probe's distributed springs against the surface samples for the probe), and
+//! returns the output in the device frame plus the [`InputEvent`] the simulation consumes.
+//! [`run`] is the thin driver: it parks on an empty cursor ring, takes the newest cursor (older
+//! ones it skips are counted), loads the snapshots with `ArcSwap::load` (lock-free), sends
+//! through the session's [`HotSender`], pushes the event, and keeps period and work histograms.
+//! Nothing on that path allocates (the histograms are sized at start) or locks, except quinn's
+//! connection lock inside `send_datagram` on QUIC.
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use glam::{DQuat, DVec3};
+use haptics_client::HotSender;
+use haptics_client::client::ClientError;
+use hdrhistogram::Histogram;
+use protocol::CursorSample;
+use protocol::packet::ModelKind;
+use sim_core::grid::ScalarGrid;
+use sim_core::haptic::{ContactModel, FieldContactParams, FieldForce, HapticOutput};
+use sim_core::probe::{
+    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+};
+
+use super::scene_file::SceneFile;
+use super::shared::{CursorMsg, ForceTool, InputEvent, LoopStats, PercentilesUs, Shared};
+use super::transform::DeviceTransform;
+
+/// How long a local model stays valid at the server without a newer command (s).
+pub const MODEL_LIFETIME_S: f64 = 0.02;
+/// Validity radius of the local models around the cursor (scene m).
+pub const MODEL_VALIDITY_M: f64 = 0.004;
+
+/// The deterministic force core; see the module doc.
+#[derive(Debug)]
+pub struct ForceMapper {
+    transform: DeviceTransform,
+    field: FieldForce,
+    probe_renderer: ProbeRenderer,
+    probe: Probe,
+}
+
+impl ForceMapper {
+    /// From a scene's device transform and tool defaults.
+    pub fn new(scene: &SceneFile) -> anyhow::Result<Self> {
+        let c = &scene.tools.contact;
+        let field = FieldForce::new(FieldContactParams {
+            stiffness: c.stiffness,
+            damping: c.damping,
+            friction: c.friction,
+            max_search: scene.region.band.max(4.0 * scene.region.spacing),
+            approach_margin: 0.5 * scene.region.spacing,
+            validity_radius: MODEL_VALIDITY_M,
+            lifetime_s: MODEL_LIFETIME_S,
+        })?;
+        let p = &scene.tools.probe;
+        let probe_renderer = ProbeRenderer::new(
+            ContactParams {
+                surface_stiffness: p.surface_stiffness,
+                surface_damping: p.surface_damping,
+                method: DirectionMethod::SurfaceNormal,
+                magnitude: MagnitudeMethod::VectorSum,
+            },
+            0,
+        )?;
+        Ok(Self {
+            transform: scene.device.transform(),
+            field,
+            probe_renderer,
+            probe: Probe::ellipsoid(DVec3::from(p.semi_axes))?,
+        })
+    }
+
+    /// The device-to-scene transform.
+    pub fn transform(&self) -> &DeviceTransform {
+        &self.transform
+    }
+
+    /// One tick: the force for `cursor` (device frame) against the newest `field` and
+    /// `samples` under `tool`. Returns the output in the device frame and the scene-frame event.
+    pub fn tick(
+        &mut self,
+        cursor: &CursorSample,
+        field: Option<&ScalarGrid>,
+        samples: Option<&SampleGrid>,
+        tool: &ForceTool,
+    ) -> (HapticOutput, InputEvent) {
+        let t = self.transform;
+        let x = t.point_to_scene(cursor.position.as_dvec3());
+        let v = t.vector_to_scene(cursor.velocity.as_dvec3());
+        let q = t.rotation_to_scene(DQuat::from(cursor.orientation.as_dquat()));
+        let (out, contact) = if !(x.is_finite() && v.is_finite()) {
+            (HapticOutput::idle(MODEL_LIFETIME_S), None)
+        } else {
+            match *tool {
+                ForceTool::Touch => match field {
+                    Some(grid) => {
+                        let r = self.field.query(grid, x, v);
+                        (r.output, r.contact.map(|c| (c.surface_point, c.normal)))
+                    }
+                    None => (HapticOutput::idle(MODEL_LIFETIME_S), None),
+                },
+                ForceTool::Rope {
+                    anchor,
+                    stiffness,
+                    max_force,
+                } => {
+                    self.field.reset();
+                    (rope_output(x, anchor, stiffness, max_force), None)
+                }
+                ForceTool::Probe { semi_axes } => {
+                    self.field.reset();
+                    (self.probe_output(x, q, v, semi_axes, samples), None)
+                }
+            }
+        };
+        let event = InputEvent {
+            position: x,
+            velocity: v,
+            orientation: q,
+            buttons: cursor.buttons,
+            force: out.force,
+            contact,
+        };
+        (t.output_to_device(&out), event)
+    }
+
+    fn probe_output(
+        &mut self,
+        x: DVec3,
+        q: DQuat,
+        v: DVec3,
+        semi_axes: DVec3,
+        samples: Option<&SampleGrid>,
+    ) -> HapticOutput {
+        let Some(samples) = samples else {
+            return HapticOutput::idle(MODEL_LIFETIME_S);
+        };
+        if self.probe.semi_axes() != semi_axes && self.probe.set_semi_axes(semi_axes).is_err() {
+            return HapticOutput::idle(MODEL_LIFETIME_S);
+        }
+        if self
+            .probe
+            .set_pose(ProbePose {
+                position: x,
+                orientation: q,
+            })
+            .is_err()
+        {
+            return HapticOutput::idle(MODEL_LIFETIME_S);
+        }
+        self.probe_renderer.query(&self.probe, samples, v).output(
+            x,
+            MODEL_VALIDITY_M,
+            MODEL_LIFETIME_S,
+        )
+    }
+}
+
+/// The rope's reaction: a spring from the tip to the anchor, `|F| ≤ max_force` with its
+/// direction kept; the anchor model lets the server render it between commands (or, once
+/// clamped, the held force).
+pub fn rope_output(x: DVec3, anchor: DVec3, stiffness: f64, max_force: f64) -> HapticOutput {
+    let f = stiffness * (anchor - x);
+    let n = f.length();
+    if n <= max_force {
+        HapticOutput {
+            force: f,
+            model: ContactModel {
+                kind: ModelKind::Anchor,
+                point: anchor,
+                normal: DVec3::ZERO,
+                stiffness,
+                damping: 0.0,
+                friction: 0.0,
+                validity_radius: MODEL_VALIDITY_M,
+                lifetime_s: MODEL_LIFETIME_S,
+            },
+        }
+    } else {
+        HapticOutput {
+            force: f * (max_force / n),
+            model: ContactModel::none(MODEL_LIFETIME_S),
+        }
+    }
+}
+
+/// The ends of the force thread's hand-offs.
+#[derive(Debug)]
+pub struct ForcePorts {
+    /// Cursors from the network side.
+    pub cursors: rtrb::Consumer<CursorMsg>,
+    /// A fresh sender after each (re)connect.
+    pub senders: rtrb::Consumer<HotSender>,
+    /// Events to the simulation.
+    pub events: rtrb::Producer<InputEvent>,
+}
+
+/// Period and work statistics of a loop, histograms sized once (no allocation per tick);
+/// published to a [`LoopStats`] every 200 ms.
+#[derive(Debug)]
+pub struct LoopTimer {
+    period: Histogram<u64>,
+    work: Histogram<u64>,
+    last: Option<Instant>,
+    since: Instant,
+    ticks: u64,
+    published: Instant,
+}
+
+impl Default for LoopTimer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl LoopTimer {
+    /// Empty statistics.
+    pub fn new() -> Self {
+        let h = || Histogram::new_with_bounds(100, 10_000_000_000, 3).expect("static bounds");
+        let now = Instant::now();
+        Self {
+            period: h(),
+            work: h(),
+            last: None,
+            since: now,
+            ticks: 0,
+            published: now,
+        }
+    }
+
+    /// One iteration that worked from `start` to `end`.
+    pub fn tick(&mut self, start: Instant, end: Instant, stats: &LoopStats) {
+        if stats.reset.swap(false, Ordering::Relaxed) {
+            self.period.reset();
+            self.work.reset();
+            self.ticks = 0;
+            self.since = start;
+            self.last = None;
+        }
+        if let Some(last) = self.last {
+            self.period
+                .saturating_record(start.duration_since(last).as_nanos() as u64);
+        }
+        self.last = Some(start);
+        self.work
+            .saturating_record(end.duration_since(start).as_nanos() as u64);
+        self.ticks += 1;
+        if end.duration_since(self.published) >= Duration::from_millis(200) {
+            self.publish(end, stats);
+        }
+    }
+
+    fn publish(&mut self, now: Instant, stats: &LoopStats) {
+        self.published = now;
+        stats.ticks.store(self.ticks, Ordering::Relaxed);
+        stats
+            .seconds
+            .set(now.duration_since(self.since).as_secs_f64());
+        stats.period_us.set(percentiles_us(&self.period));
+        stats.work_us.set(percentiles_us(&self.work));
+    }
+}
+
+/// Percentiles of a nanosecond histogram, in µs.
+pub fn percentiles_us(h: &Histogram<u64>) -> PercentilesUs {
+    if h.is_empty() {
+        return PercentilesUs::default();
+    }
+    let us = |ns: u64| ns as f64 / 1e3;
+    PercentilesUs {
+        p50: us(h.value_at_quantile(0.5)),
+        p99: us(h.value_at_quantile(0.99)),
+        p999: us(h.value_at_quantile(0.999)),
+        max: us(h.max()),
+    }
+}
+
+/// `SCHED_FIFO` priority of the force-mapping thread: above everything else of the workstation,
+/// below a servo thread on the same machine (the demo's in-process server asks for
+/// [`SERVO_FIFO_PRIORITY`]): the device side must never wait for the workstation.
+pub const FORCE_FIFO_PRIORITY: i32 = 60;
+/// The in-process demo server's servo priority.
+pub const SERVO_FIFO_PRIORITY: i32 = 80;
+
+/// Ask for real-time priority for this thread (SCHED_FIFO on Linux, which needs
+/// `CAP_SYS_NICE` or an rtprio limit), else a better nice value; says what it got.
+pub fn raise_priority() -> &'static str {
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: pthread_setschedparam and setpriority take plain values and a pointer to a
+        // local; pthread_self is always valid for the calling thread.
+        unsafe {
+            let param = libc::sched_param {
+                sched_priority: FORCE_FIFO_PRIORITY,
+            };
+            if libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) == 0 {
+                return "SCHED_FIFO";
+            }
+            // Not permitted: at least the best nice value we may take.
+            if libc::setpriority(libc::PRIO_PROCESS, 0, -10) == 0 {
+                return "nice -10";
+            }
+        }
+    }
+    "normal (no real-time permission)"
+}
+
+/// The thread body: runs until `shared` says stop.
+pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) {
+    let priority = raise_priority();
+    tracing::info!(priority, "force-mapping thread started");
+    let mut sender: Option<HotSender> = None;
+    let mut clock = LoopTimer::new();
+    while !shared.stopping() {
+        while let Ok(s) = ports.senders.pop() {
+            sender = Some(s);
+            mapper.field.reset();
+        }
+        let mut newest = None;
+        let mut skipped = 0u64;
+        while let Ok(c) = ports.cursors.pop() {
+            if newest.is_some() {
+                skipped += 1;
+            }
+            newest = Some(c);
+        }
+        if skipped > 0 {
+            shared
+                .net
+                .cursors_skipped
+                .fetch_add(skipped, Ordering::Relaxed);
+        }
+        let Some(msg) = newest else {
+            // Unparked by the network side on every push; the timeout only bounds stop latency.
+            std::thread::park_timeout(Duration::from_millis(5));
+            continue;
+        };
+        let start = Instant::now();
+        let field = shared.field.load();
+        let samples = shared.samples.load();
+        let tool = shared.tool.load();
+        let (out, event) = mapper.tick(&msg.cursor, field.as_deref(), samples.as_deref(), &tool);
+        drop((field, samples, tool));
+
+        if let Some(s) = &mut sender {
+            let cmd = out.to_command(msg.packet_sequence, msg.server_timestamp_ns);
+            match s.send_force(&cmd) {
+                Ok(()) => {
+                    shared.net.forces_sent.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(ClientError::Closed) => sender = None,
+                Err(e) => tracing::debug!("force command not sent: {e}"),
+            }
+        }
+        shared.haptic.record(&event);
+        if ports.events.push(event).is_err() {
+            shared.events_dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        let end = Instant::now();
+        shared.net.turnaround_ns.store(
+            end.duration_since(msg.received).as_nanos() as u64,
+            Ordering::Relaxed,
+        );
+        clock.tick(start, end, &shared.force_loop);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Quat, Vec3};
+    use sim_core::grid::GridSpec;
+
+    fn scene() -> SceneFile {
+        SceneFile::parse(
+            r#"
+[[object]]
+name = "ball"
+generate = { shape = "sphere", size = 0.02, points = 500, seed = 1 }
+[region]
+object = "ball"
+min = [-0.03, -0.03, -0.03]
+max = [0.03, 0.03, 0.03]
+spacing = 0.001
+band = 0.004
+[tools.contact]
+stiffness = 500.0
+damping = 0.0
+friction = 0.0
+"#,
+        )
+        .unwrap()
+    }
+
+    fn cursor(p: [f32; 3]) -> CursorSample {
+        CursorSample {
+            position: Vec3::from(p),
+            orientation: Quat::IDENTITY,
+            velocity: Vec3::ZERO,
+            buttons: 1,
+            output_force: Vec3::ZERO,
+            servo_tick: 0,
+            engaged: true,
+            estop: false,
+        }
+    }
+
+    #[test]
+    fn touch_force_is_stiffness_times_depth_and_outward() {
+        let mut m = ForceMapper::new(&scene()).unwrap();
+        let spec = GridSpec::covering(DVec3::splat(-0.03), DVec3::splat(0.03), 0.001);
+        let grid = ScalarGrid::from_fn(spec, |p| p.length() - 0.02);
+        let (out, ev) = m.tick(
+            &cursor([0.0, 0.019, 0.0]),
+            Some(&grid),
+            None,
+            &ForceTool::Touch,
+        );
+        assert!((out.force.y - 0.5).abs() < 0.02, "{:?}", out.force);
+        assert!(ev.contact.is_some() && ev.pressed());
+        let (idle, _) = m.tick(&cursor([0.0, 0.019, 0.0]), None, None, &ForceTool::Touch);
+        assert_eq!(idle.force, DVec3::ZERO, "no snapshot yet: no force");
+    }
+
+    #[test]
+    fn rope_force_is_clamped_with_its_direction_kept() {
+        let out = rope_output(DVec3::new(0.1, 0.0, 0.0), DVec3::ZERO, 100.0, 3.0);
+        assert!((out.force.length() - 3.0).abs() < 1e-12);
+        assert!(out.force.x < 0.0 && out.force.y == 0.0);
+        let near = rope_output(DVec3::new(0.01, 0.0, 0.0), DVec3::ZERO, 100.0, 3.0);
+        assert!((near.force.x + 1.0).abs() < 1e-12);
+        assert_eq!(near.model.kind, ModelKind::Anchor);
+    }
+
+    #[test]
+    fn non_finite_cursors_give_zero_force() {
+        let mut m = ForceMapper::new(&scene()).unwrap();
+        let (out, _) = m.tick(
+            &cursor([f32::NAN, 0.0, 0.0]),
+            None,
+            None,
+            &ForceTool::Rope {
+                anchor: DVec3::ZERO,
+                stiffness: 100.0,
+                max_force: 3.0,
+            },
+        );
+        assert_eq!(out.force, DVec3::ZERO);
+    }
+}

@@ -1,0 +1,357 @@
+//! The workstation process of seed 000 Fig. 7: network, force-mapping, simulation and rendering
+//! threads around one scene.
+//!
+//! ```text
+//!  haptics-server ──cursor 1 kHz──▶ [net: tokio] ──ring──▶ [force] ──ForceCommand──▶ server
+//!                                         ▲                 │  ▲ field grid, samples, tool
+//!                           clock pings,  │          events │  │ (ArcSwap, newest wins)
+//!                           Stats         │            ring ▼  │
+//!                                                      [simulation] ──RenderSnapshot──▶ [frames]
+//! ```
+//!
+//! Each thread's core is deterministic and testable without the others: [`force::ForceMapper`],
+//! [`sim::SimCore`], [`frames::FrameMaker`]; the drivers ([`force::run`], [`sim::run`],
+//! [`net::run`], [`frames::run`]) are thin. Hand-off policies are in [`shared`]. The force thread
+//! never waits for the simulation: it reads the newest immutable snapshot, whatever its age.
+//!
+//! [`Workstation::start`] loads the scene and starts the threads; [`Workstation::finish`]
+//! stops them and returns the simulation core for saving ([`save`]).
+
+pub mod demo;
+pub mod force;
+pub mod frames;
+pub mod net;
+pub mod run;
+pub mod scene_file;
+pub mod shared;
+pub mod sim;
+pub mod transform;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use glam::DVec3;
+use serde::Serialize;
+use sim_core::io::{self, Format};
+use sim_core::mesh::{TriMesh, extract_zero_set};
+
+use crate::sculpt::script::Op;
+use frames::FrameCount;
+use net::NetConfig;
+use scene_file::{SceneFile, ToolKind};
+use shared::{CURSOR_RING, EVENT_RING, PercentilesUs, Shared};
+use sim::{SimCommand, SimCore, SimReport};
+
+/// A running workstation.
+#[derive(Debug)]
+pub struct Workstation {
+    /// What the threads share (statistics, snapshots).
+    pub shared: Arc<Shared>,
+    commands: mpsc::Sender<SimCommand>,
+    reports: mpsc::Receiver<SimReport>,
+    threads: Vec<(&'static str, JoinHandle<()>)>,
+    frames: Arc<FrameCount>,
+    started: Instant,
+}
+
+impl Workstation {
+    /// Load and fit the scene (relative files against `dir`), then start the simulation,
+    /// force-mapping, network and (with `frames`) rendering threads.
+    pub fn start(
+        scene: &SceneFile,
+        dir: PathBuf,
+        net_cfg: NetConfig,
+        frames_dir: Option<PathBuf>,
+    ) -> anyhow::Result<Self> {
+        let core = SimCore::new(scene, dir)?;
+        let mapper = force::ForceMapper::new(scene)?;
+        let shared = Shared::new();
+        let (cursor_tx, cursor_rx) = rtrb::RingBuffer::new(CURSOR_RING);
+        let (sender_tx, sender_rx) = rtrb::RingBuffer::new(4);
+        let (event_tx, event_rx) = rtrb::RingBuffer::new(EVENT_RING);
+        let (cmd_tx, cmd_rx) = mpsc::channel();
+        let (rep_tx, rep_rx) = mpsc::channel();
+        let mut threads = Vec::new();
+        let spawn = |name: &'static str, f: Box<dyn FnOnce() + Send>| {
+            std::thread::Builder::new()
+                .name(name.into())
+                .spawn(f)
+                .with_context(|| format!("starting the {name} thread"))
+        };
+        // The first field snapshot is there before any cursor arrives.
+        let mut core = core;
+        shared.field.store(core.publish_field());
+        shared.render.store(Some(Arc::new(core.render_snapshot())));
+        let s = Arc::clone(&shared);
+        threads.push((
+            "simulation",
+            spawn(
+                "simulation",
+                Box::new(move || sim::run(core, event_rx, cmd_rx, rep_tx, s)),
+            )?,
+        ));
+        let s = Arc::clone(&shared);
+        let ports = force::ForcePorts {
+            cursors: cursor_rx,
+            senders: sender_rx,
+            events: event_tx,
+        };
+        let force = spawn(
+            "force-mapping",
+            Box::new(move || force::run(mapper, ports, s)),
+        )?;
+        let ports = net::NetPorts {
+            cursors: cursor_tx,
+            senders: sender_tx,
+            force_thread: force.thread().clone(),
+        };
+        threads.push(("force-mapping", force));
+        let s = Arc::clone(&shared);
+        threads.push((
+            "network",
+            spawn("network", Box::new(move || net::run(net_cfg, ports, s)))?,
+        ));
+        let count = Arc::new(FrameCount::default());
+        if let Some(dir) = frames_dir {
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            let maker = frames::FrameMaker::new(&scene.render)?;
+            let (s, c) = (Arc::clone(&shared), Arc::clone(&count));
+            let interval = Duration::from_secs_f64(scene.render.interval_s);
+            threads.push((
+                "rendering",
+                spawn(
+                    "rendering",
+                    Box::new(move || frames::run(maker, dir, interval, c, s)),
+                )?,
+            ));
+        }
+        Ok(Self {
+            shared,
+            commands: cmd_tx,
+            reports: rep_rx,
+            threads,
+            frames: count,
+            started: Instant::now(),
+        })
+    }
+
+    /// Tools for the next button presses, in order.
+    pub fn queue_tools(&self, tools: Vec<ToolKind>) -> anyhow::Result<()> {
+        self.commands
+            .send(SimCommand::QueueTools(tools))
+            .context("the simulation thread has stopped")
+    }
+
+    /// Select the tool for later presses.
+    pub fn select(&self, tool: ToolKind) -> anyhow::Result<()> {
+        self.commands
+            .send(SimCommand::Select(tool))
+            .context("the simulation thread has stopped")
+    }
+
+    /// Run an operation on the simulation thread and wait for it.
+    pub fn run_op(&self, op: &Op) -> anyhow::Result<String> {
+        let (tx, rx) = mpsc::channel();
+        self.commands
+            .send(SimCommand::Op(Box::new(op.clone()), tx))
+            .context("the simulation thread has stopped")?;
+        rx.recv().context("the simulation thread has stopped")?
+    }
+
+    /// The next report from the simulation, waiting up to `timeout`.
+    pub fn next_report(&self, timeout: Duration) -> Option<SimReport> {
+        self.reports.recv_timeout(timeout).ok()
+    }
+
+    /// Whether a session with the server is up.
+    pub fn connected(&self) -> bool {
+        self.shared.net.connected.load(Ordering::Acquire)
+    }
+
+    /// Wait until a session is up (and the first cursor has arrived).
+    pub fn wait_connected(&self, timeout: Duration) -> anyhow::Result<()> {
+        let t0 = Instant::now();
+        while !self.connected() {
+            anyhow::ensure!(
+                t0.elapsed() < timeout,
+                "no session with the server after {timeout:?}"
+            );
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        Ok(())
+    }
+
+    /// Frames written so far.
+    pub fn frames(&self) -> u64 {
+        self.frames.0.load(Ordering::Relaxed)
+    }
+
+    /// Statistics now.
+    pub fn stats(&self) -> LiveStats {
+        let s = &self.shared;
+        let n = &s.net;
+        LiveStats {
+            seconds: self.started.elapsed().as_secs_f64(),
+            force_loop_hz: s.force_loop.rate_hz(),
+            force_loop_period_us: s.force_loop.period_us.get(),
+            force_loop_work_us: s.force_loop.work_us.get(),
+            sim_hz: s.sim_loop.rate_hz(),
+            sim_step_us: s.sim_loop.work_us.get(),
+            sim_steps: s.sim_steps.load(Ordering::Relaxed),
+            rtt_us: n.force_rtt_us.get(),
+            clock_offset_us: n.clock_offset_ns.get() / 1e3,
+            clock_uncertainty_us: n.clock_uncertainty_ns.get() / 1e3,
+            ping_rtt_us: n.ping_rtt_ns.load(Ordering::Relaxed) as f64 / 1e3,
+            sessions: n.sessions.load(Ordering::Relaxed),
+            cursors: n.cursors.load(Ordering::Relaxed),
+            cursors_dropped: n.cursors_dropped.load(Ordering::Relaxed),
+            cursors_skipped: n.cursors_skipped.load(Ordering::Relaxed),
+            forces_sent: n.forces_sent.load(Ordering::Relaxed),
+            events_dropped: s.events_dropped.load(Ordering::Relaxed),
+            frames: self.frames(),
+        }
+    }
+
+    /// Stop every thread and hand back the simulation core (for saving).
+    pub fn finish(mut self) -> anyhow::Result<SimCore> {
+        let (tx, rx) = mpsc::channel();
+        let sent = self.commands.send(SimCommand::Finish(tx)).is_ok();
+        let core = if sent {
+            rx.recv_timeout(Duration::from_secs(60)).ok()
+        } else {
+            None
+        };
+        self.shared.request_stop();
+        for (name, t) in self.threads.drain(..) {
+            t.thread().unpark();
+            if t.join().is_err() {
+                tracing::error!("the {name} thread panicked");
+            }
+        }
+        core.context("the simulation thread stopped before the end (see the log)")
+    }
+}
+
+impl Drop for Workstation {
+    fn drop(&mut self) {
+        self.shared.request_stop();
+        for (_, t) in self.threads.drain(..) {
+            t.thread().unpark();
+            let _ = t.join();
+        }
+    }
+}
+
+/// Statistics of a running workstation.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct LiveStats {
+    /// Since start (s).
+    pub seconds: f64,
+    /// Force-mapping ticks per second.
+    pub force_loop_hz: f64,
+    /// Force-mapping tick-to-tick period (µs).
+    pub force_loop_period_us: PercentilesUs,
+    /// Force-mapping work per tick (µs).
+    pub force_loop_work_us: PercentilesUs,
+    /// Simulation steps per second.
+    pub sim_hz: f64,
+    /// Simulation work per step (µs).
+    pub sim_step_us: PercentilesUs,
+    /// Simulation steps run.
+    pub sim_steps: u64,
+    /// Cursor → force round trip measured by the server (µs).
+    pub rtt_us: PercentilesUs,
+    /// Clock offset server − workstation (µs) …
+    pub clock_offset_us: f64,
+    /// … and its bound (µs).
+    pub clock_uncertainty_us: f64,
+    /// Round trip of the clock ping behind the estimate (µs).
+    pub ping_rtt_us: f64,
+    /// Sessions opened (1 + reconnects).
+    pub sessions: u64,
+    /// Cursor samples received.
+    pub cursors: u64,
+    /// Cursors dropped (force ring full).
+    pub cursors_dropped: u64,
+    /// Cursors skipped by the force thread (a newer one was waiting).
+    pub cursors_skipped: u64,
+    /// Force commands sent.
+    pub forces_sent: u64,
+    /// Input events dropped (simulation ring full).
+    pub events_dropped: u64,
+    /// PNG frames written.
+    pub frames: u64,
+}
+
+/// What [`save`] wrote.
+#[derive(Debug, Clone, Serialize)]
+pub struct Saved {
+    /// Points written.
+    pub points: usize,
+    /// Triangles of the meshed zero set.
+    pub triangles: usize,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// Save the visible objects: `final.ply` (points, normals, colours) and the meshed zero set as
+/// `final_mesh.ply`, `final_mesh.obj` and `final_mesh.stl`.
+pub fn save(core: &SimCore, out: &Path, resolution: usize) -> anyhow::Result<Saved> {
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut points = sim_core::PointSet {
+        positions: Vec::new(),
+        normals: Some(Vec::new()),
+        colors: Some(Vec::new()),
+    };
+    let mut mesh = TriMesh {
+        vertices: Vec::new(),
+        normals: Vec::new(),
+        triangles: Vec::new(),
+    };
+    for o in core.visible() {
+        points.positions.extend_from_slice(&o.positions);
+        if let Some(n) = &mut points.normals {
+            n.extend_from_slice(&o.normals);
+        }
+        if let Some(c) = &mut points.colors {
+            c.extend_from_slice(&o.colors);
+        }
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in &o.positions {
+            (lo, hi) = (lo.min(*p), hi.max(*p));
+        }
+        let pad = DVec3::splat((hi - lo).max_element() * 0.05 + 1e-6);
+        let m = extract_zero_set(&o.field, (lo - pad, hi + pad), resolution);
+        let base = mesh.vertices.len() as u32;
+        mesh.vertices.extend_from_slice(&m.vertices);
+        mesh.normals.extend_from_slice(&m.normals);
+        mesh.triangles
+            .extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    let mut files = Vec::new();
+    let ply = out.join("final.ply");
+    let f = std::fs::File::create(&ply).with_context(|| format!("creating {}", ply.display()))?;
+    io::write_points_ply(std::io::BufWriter::new(f), &points, false)?;
+    files.push(ply);
+    for (name, format) in [
+        ("final_mesh.ply", Format::Ply),
+        ("final_mesh.obj", Format::Obj),
+        ("final_mesh.stl", Format::Stl),
+    ] {
+        let path = out.join(name);
+        let f =
+            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        io::write_mesh(std::io::BufWriter::new(f), &mesh, format)?;
+        files.push(path);
+    }
+    Ok(Saved {
+        points: points.positions.len(),
+        triangles: mesh.triangles.len(),
+        files,
+    })
+}

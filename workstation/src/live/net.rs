@@ -1,0 +1,173 @@
+//! The network side: a tokio runtime on its own thread that keeps one session with the server.
+//!
+//! Connect through `haptics-client` with the pinned certificate (handshake, `Welcome`), wait for
+//! the first cursor (the UDP opener is re-sent until it arrives), split the hot path and hand
+//! the [`HotSender`](haptics_client::HotSender) to the force thread. Then, concurrently: every
+//! cursor goes into the force thread's ring (which it unparks); a `ClockPing` every 100 ms feeds
+//! a [`ClockEstimator`] (offset and its bound in [`NetStats`](super::shared::NetStats)); the
+//! server's periodic `Stats` give the cursor → force round trip it measured. When the session
+//! ends (server gone or restarted, connection lost, idle) the loop reconnects with backoff
+//! (100 ms doubling to 2 s) until the workstation stops; then it says `Bye`.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::thread::Thread;
+use std::time::{Duration, Instant};
+
+use haptics_client::client::ClientError;
+use haptics_client::{Client, ClientConfig, HotSender, TransportKind};
+use protocol::control::{ClockPing, Stats};
+use protocol::{ClockEstimator, ClockSample, Control};
+use rustls::pki_types::CertificateDer;
+
+use super::shared::{CursorMsg, NetStats, PercentilesUs, Shared};
+
+/// Where and how to connect.
+#[derive(Debug, Clone)]
+pub struct NetConfig {
+    /// The server.
+    pub server: SocketAddr,
+    /// Transport.
+    pub transport: TransportKind,
+    /// The server's certificate, pinned.
+    pub cert: CertificateDer<'static>,
+}
+
+/// The ends of the network side's hand-offs.
+#[derive(Debug)]
+pub struct NetPorts {
+    /// Cursors to the force thread.
+    pub cursors: rtrb::Producer<CursorMsg>,
+    /// A sender per session to the force thread.
+    pub senders: rtrb::Producer<HotSender>,
+    /// The force thread, unparked on every cursor.
+    pub force_thread: Thread,
+}
+
+/// The thread body.
+pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
+    let rt = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(rt) => rt,
+        Err(e) => {
+            tracing::error!("cannot start the network runtime: {e}");
+            shared.request_stop();
+            return;
+        }
+    };
+    rt.block_on(async move {
+        let mut backoff = Duration::from_millis(100);
+        while !shared.stopping() {
+            let mut ccfg = ClientConfig::new(cfg.server, cfg.transport, cfg.cert.clone());
+            ccfg.client_name = format!("workstation {}", std::process::id());
+            match Client::connect(&ccfg).await {
+                Ok(client) => {
+                    backoff = Duration::from_millis(100);
+                    shared.net.sessions.fetch_add(1, Ordering::Relaxed);
+                    tracing::info!(
+                        server = %cfg.server,
+                        device = %client.welcome.device_name,
+                        session = client.welcome.session_id,
+                        "session up"
+                    );
+                    match session(client, &mut ports, &shared).await {
+                        Ok(()) => tracing::info!("session closed"),
+                        Err(e) => tracing::warn!("session lost: {e}; reconnecting"),
+                    }
+                    shared.net.connected.store(false, Ordering::Release);
+                }
+                Err(e) => {
+                    tracing::debug!("connect to {} failed: {e}", cfg.server);
+                    tokio::time::sleep(backoff).await;
+                    backoff = (backoff * 2).min(Duration::from_secs(2));
+                }
+            }
+        }
+    });
+}
+
+async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Result<(), ClientError> {
+    let Client {
+        mut control,
+        mut hot,
+        ..
+    } = client;
+    let clock = hot.clock();
+    let first = tokio::time::timeout(Duration::from_secs(3), hot.recv_cursor())
+        .await
+        .map_err(|_| ClientError::Timeout("the first cursor sample"))??;
+    let (mut rx, tx) = hot.split();
+    // One sender per session; the ring has room for a few (the force thread takes them at once).
+    if ports.senders.push(tx).is_err() {
+        return Err(ClientError::Protocol(
+            "force thread not taking senders".into(),
+        ));
+    }
+    shared.net.connected.store(true, Ordering::Release);
+    push_cursor(
+        ports,
+        &shared.net,
+        CursorMsg::new(&first.0, first.1, Instant::now()),
+    );
+    let mut estimator = ClockEstimator::new(200.0);
+    let mut ping = tokio::time::interval(Duration::from_millis(100));
+    let mut ping_id = 0u32;
+    loop {
+        if shared.stopping() {
+            let _ = control.close("workstation stopping").await;
+            return Ok(());
+        }
+        tokio::select! {
+            r = rx.recv_cursor() => {
+                let (packet, cursor) = r?;
+                push_cursor(ports, &shared.net, CursorMsg::new(&packet, cursor, Instant::now()));
+            }
+            msg = control.recv() => match msg? {
+                Control::ClockPong(p) => {
+                    let sample = ClockSample { t0_ns: p.t0_ns, t1_ns: p.t1_ns, t2_ns: p.t2_ns, t3_ns: clock.now_ns() };
+                    if estimator.add(sample).is_ok() && let Some(e) = estimator.estimate() {
+                        shared.net.clock_offset_ns.set(e.offset_ns as f64);
+                        shared.net.clock_uncertainty_ns.set(e.uncertainty_ns as f64);
+                        shared.net.ping_rtt_ns.store(e.rtt_ns, Ordering::Relaxed);
+                    }
+                }
+                Control::Stats(s) => record_stats(&shared.net, &s),
+                Control::Bye(b) => {
+                    tracing::info!("server said bye: {}", b.reason);
+                    return Err(ClientError::Closed);
+                }
+                Control::Error(e) => {
+                    return Err(ClientError::Refused { code: e.code, message: e.message });
+                }
+                _ => {}
+            },
+            _ = ping.tick() => {
+                ping_id = ping_id.wrapping_add(1);
+                control.send(&Control::ClockPing(ClockPing { id: ping_id, t0_ns: clock.now_ns() })).await?;
+            }
+        }
+    }
+}
+
+fn push_cursor(ports: &mut NetPorts, net: &NetStats, msg: CursorMsg) {
+    net.cursors.fetch_add(1, Ordering::Relaxed);
+    if ports.cursors.push(msg).is_err() {
+        net.cursors_dropped.fetch_add(1, Ordering::Relaxed);
+    }
+    ports.force_thread.unpark();
+}
+
+fn record_stats(net: &NetStats, s: &Stats) {
+    let us = |ns: u64| ns as f64 / 1e3;
+    let p = |x: &protocol::control::Percentiles| PercentilesUs {
+        p50: us(x.p50),
+        p99: us(x.p99),
+        p999: us(x.p999),
+        max: us(x.max),
+    };
+    net.force_rtt_us.set(p(&s.force_rtt_ns));
+    net.server_period_p99_us.set(us(s.period_ns.p99));
+}

@@ -1,0 +1,160 @@
+//! `workstation run`: the workstation process against a running `haptics-server`, and
+//! `workstation hand-path`: a scene's strokes as the fake device's path file.
+//!
+//! `run` loads the scene, connects (reconnecting whenever the session drops), and runs until
+//! Ctrl-C or `--seconds`, printing one status line a second. If the scene has phases, they are
+//! driven as in the demo (strokes end at the button's release). On exit it saves the model to
+//! `--out`.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use haptics_client::TransportKind;
+
+use super::demo::{LEAD_IN_S, drive_phases, hand_path, write_hand_path};
+use super::net::NetConfig;
+use super::scene_file::SceneFile;
+use super::{Workstation, save};
+
+/// Arguments of `workstation run`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RunArgs {
+    /// The haptics server (host:port).
+    #[arg(long, value_name = "ADDR")]
+    pub server: SocketAddr,
+    /// Transport; must match the server's.
+    #[arg(long, value_enum, default_value_t = TransportKind::Udp)]
+    pub transport: TransportKind,
+    /// The server's certificate (PEM), pinned: copy it from the haptics PC
+    /// (`haptics-server gen-cert` prints where it is).
+    #[arg(long, value_name = "FILE")]
+    pub cert: PathBuf,
+    /// The scene (TOML; see examples/live/README.md).
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene: PathBuf,
+    /// Where the model and frames are saved on exit.
+    #[arg(long, default_value = "out/run")]
+    pub out: PathBuf,
+    /// Write a PNG frame every `render.interval_s` into OUT/frames.
+    #[arg(long)]
+    pub frames: bool,
+    /// Stop after this many seconds [default: at Ctrl-C].
+    #[arg(long)]
+    pub seconds: Option<f64>,
+}
+
+/// Arguments of `workstation hand-path`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct HandPathArgs {
+    /// The scene whose strokes the hand follows.
+    pub scene: PathBuf,
+    /// The path file to write (`t_s x y z buttons` per line).
+    #[arg(long, short)]
+    pub out: PathBuf,
+}
+
+/// Read and check a scene file; errors name the file and the field.
+pub fn load_scene(path: &Path) -> anyhow::Result<SceneFile> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    SceneFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+/// `workstation hand-path`.
+pub fn hand_path_command(args: &HandPathArgs) -> anyhow::Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let path = hand_path(&scene, LEAD_IN_S);
+    write_hand_path(&args.out, &path)?;
+    println!(
+        "wrote {} ({} points, {:.1} s); serve it with: haptics-server --device fake --fake-path file --fake-path-file {}",
+        args.out.display(),
+        path.len(),
+        path.iter().rev().nth(1).map_or(0.0, |p| p.0),
+        args.out.display()
+    );
+    Ok(())
+}
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_sigint(_: libc::c_int) {
+    INTERRUPTED.store(true, Ordering::Relaxed);
+}
+
+/// `workstation run`.
+pub fn run(args: &RunArgs) -> anyhow::Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let dir = args
+        .scene
+        .parent()
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+    let cfg = NetConfig {
+        server: args.server,
+        transport: args.transport,
+        cert: haptics_client::tls::read_cert(&args.cert)?,
+    };
+    // SAFETY: installs an async-signal-safe handler that only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGINT, on_sigint as *const () as libc::sighandler_t);
+    }
+    let frames = args.frames.then(|| args.out.join("frames"));
+    let ws = Workstation::start(&scene, dir, cfg, frames)?;
+    println!(
+        "workstation: connecting to {} over {:?}",
+        args.server, args.transport
+    );
+    let started = Instant::now();
+    let done = || {
+        INTERRUPTED.load(Ordering::Relaxed)
+            || args
+                .seconds
+                .is_some_and(|s| started.elapsed().as_secs_f64() >= s)
+    };
+    if !scene.phase.is_empty() {
+        let deadline = started + Duration::from_secs_f64(args.seconds.unwrap_or(3600.0));
+        ws.wait_connected(Duration::from_secs(30))?;
+        drive_phases(&ws, &scene, deadline, |i, r| {
+            println!(
+                "[{}/{}] {}: {}",
+                i + 1,
+                scene.phase.len(),
+                r.name,
+                r.summary
+            );
+        })?;
+    }
+    let mut last = Instant::now();
+    while !done() {
+        std::thread::sleep(Duration::from_millis(50));
+        if last.elapsed() >= Duration::from_secs(1) {
+            last = Instant::now();
+            let s = ws.stats();
+            println!(
+                "{} force {:.0} Hz (p99 {:.0} µs) · sim {:.0} Hz · rtt p50 {:.0} µs · clock ±{:.0} µs · sessions {}",
+                if ws.connected() {
+                    "connected"
+                } else {
+                    "waiting for the server"
+                },
+                s.force_loop_hz,
+                s.force_loop_period_us.p99,
+                s.sim_hz,
+                s.rtt_us.p50,
+                s.clock_uncertainty_us,
+                s.sessions
+            );
+        }
+    }
+    let core = ws.finish()?;
+    let saved = save(&core, &args.out, scene.mesh_resolution)?;
+    println!(
+        "saved {} points, {} triangles into {}",
+        saved.points,
+        saved.triangles,
+        args.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,340 @@
+//! What the workstation's threads hand each other, and the policy of every hand-off.
+//!
+//! | from → to | what | how | when full / empty |
+//! |---|---|---|---|
+//! | network → force | [`CursorMsg`] | `rtrb` ring, 64 | full: the newest cursor is dropped and counted (the force thread is late anyway); empty: the force thread parks until the network side unparks it |
+//! | network → force | a new [`crate::live::force::ForceSink`] after each (re)connect | `rtrb` ring, 4 | full: cannot happen (one per connect, taken every tick) |
+//! | force → simulation | [`InputEvent`] (cursor in the scene, buttons, contact, force) | `rtrb` ring, 4096 | full: the event is dropped and counted (the simulation is inside a long operation; it sees a jump when it is back) |
+//! | simulation → force | the field grid snapshot and the [`ForceTool`] | [`ArcSwapOption`] / [`ArcSwap`]: immutable, swapped, never locked against the reader | the force thread always reads the newest; a missing grid means no contact |
+//! | simulation → rendering | [`RenderSnapshot`] | [`ArcSwapOption`] | the renderer draws the newest |
+//! | force → anyone | loop statistics, the last force and contact | atomics in [`HapticMonitor`] and [`LoopStats`] | — |
+//!
+//! Nothing on the force thread's path locks or allocates: ring pushes and pops are wait-free,
+//! `ArcSwap::load` is lock-free, statistics are relaxed atomics.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+use arc_swap::{ArcSwap, ArcSwapOption};
+use glam::{DQuat, DVec3};
+use protocol::{CursorSample, Packet};
+use sim_core::grid::ScalarGrid;
+use sim_core::probe::SampleGrid;
+
+use super::scene_file::ToolKind;
+
+/// Capacity of the network → force cursor ring.
+pub const CURSOR_RING: usize = 64;
+/// Capacity of the force → simulation event ring (4 s at 1 kHz).
+pub const EVENT_RING: usize = 4096;
+
+/// One cursor sample as the network side received it.
+#[derive(Debug, Clone, Copy)]
+pub struct CursorMsg {
+    /// Header (sequence, the server's timestamp).
+    pub packet_sequence: u32,
+    /// The server's clock when it sent the sample, ns.
+    pub server_timestamp_ns: u64,
+    /// When the workstation received it.
+    pub received: Instant,
+    /// The sample.
+    pub cursor: CursorSample,
+}
+
+impl CursorMsg {
+    /// From a received packet.
+    pub fn new(packet: &Packet, cursor: CursorSample, received: Instant) -> Self {
+        Self {
+            packet_sequence: packet.sequence,
+            server_timestamp_ns: packet.timestamp_ns,
+            received,
+            cursor,
+        }
+    }
+}
+
+/// The cursor as the simulation sees it, once per force tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InputEvent {
+    /// Tip position in the scene (m).
+    pub position: DVec3,
+    /// Tip velocity in the scene (m/s).
+    pub velocity: DVec3,
+    /// Stylus orientation in the scene.
+    pub orientation: DQuat,
+    /// Button mask (bit 0: the tool button).
+    pub buttons: u16,
+    /// The force sent for this cursor, scene frame (N).
+    pub force: DVec3,
+    /// The surface point and outward normal under the tip, when in or near contact.
+    pub contact: Option<(DVec3, DVec3)>,
+}
+
+impl InputEvent {
+    /// The tool button is down.
+    pub fn pressed(&self) -> bool {
+        self.buttons & 1 != 0
+    }
+}
+
+/// What the force thread renders besides touching the field; published by the simulation when
+/// a stroke starts, moves or ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ForceTool {
+    /// Touch the surface: field force with friction.
+    Touch,
+    /// A rope stroke: a spring from the tip to `anchor`, the picked surface point as it moves.
+    Rope {
+        /// Where the rope holds the surface (m).
+        anchor: DVec3,
+        /// Spring stiffness (N/m).
+        stiffness: f64,
+        /// Largest force (N).
+        max_force: f64,
+    },
+    /// The shaped probe against the surface samples.
+    Probe {
+        /// Semi-axes (m).
+        semi_axes: DVec3,
+    },
+}
+
+/// Points for the renderer, published by the simulation at the rendering rate.
+#[derive(Debug, Clone, Default)]
+pub struct RenderSnapshot {
+    /// Positions (m).
+    pub positions: Vec<DVec3>,
+    /// Unit normals.
+    pub normals: Vec<DVec3>,
+    /// sRGB colours.
+    pub colors: Vec<[u8; 3]>,
+    /// The sculpting region box.
+    pub region: Option<(DVec3, DVec3)>,
+    /// The selected tool.
+    pub tool: Option<ToolKind>,
+    /// Probe semi-axes, when the probe is the tool.
+    pub probe_semi_axes: Option<DVec3>,
+    /// Simulation steps so far.
+    pub steps: u64,
+}
+
+/// A relaxed atomic `f64`.
+#[derive(Debug, Default)]
+pub struct AtomicF64(AtomicU64);
+
+impl AtomicF64 {
+    /// Store.
+    pub fn set(&self, v: f64) {
+        self.0.store(v.to_bits(), Ordering::Relaxed);
+    }
+    /// Load.
+    pub fn get(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::Relaxed))
+    }
+}
+
+/// The last cursor, force and contact (for the renderer and reports).
+#[derive(Debug, Default)]
+pub struct HapticMonitor {
+    /// Tip in the scene.
+    pub cursor: [AtomicF64; 3],
+    /// Force sent, scene frame.
+    pub force: [AtomicF64; 3],
+    /// Contact point (NaN when none).
+    pub contact: [AtomicF64; 3],
+    /// Buttons.
+    pub buttons: AtomicU64,
+}
+
+impl HapticMonitor {
+    fn set3(slot: &[AtomicF64; 3], v: DVec3) {
+        for (s, x) in slot.iter().zip(v.to_array()) {
+            s.set(x);
+        }
+    }
+    fn get3(slot: &[AtomicF64; 3]) -> DVec3 {
+        DVec3::new(slot[0].get(), slot[1].get(), slot[2].get())
+    }
+    /// Record one tick.
+    pub fn record(&self, e: &InputEvent) {
+        Self::set3(&self.cursor, e.position);
+        Self::set3(&self.force, e.force);
+        Self::set3(
+            &self.contact,
+            e.contact.map_or(DVec3::splat(f64::NAN), |c| c.0),
+        );
+        self.buttons.store(u64::from(e.buttons), Ordering::Relaxed);
+    }
+    /// The last tip position.
+    pub fn cursor(&self) -> DVec3 {
+        Self::get3(&self.cursor)
+    }
+    /// The last force sent (scene frame).
+    pub fn force(&self) -> DVec3 {
+        Self::get3(&self.force)
+    }
+    /// The last contact point.
+    pub fn contact(&self) -> Option<DVec3> {
+        Some(Self::get3(&self.contact)).filter(|c| c.is_finite())
+    }
+}
+
+/// Percentiles in microseconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct PercentilesUs {
+    /// Median.
+    pub p50: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// 99.9th percentile.
+    pub p999: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+/// Percentiles published through atomics.
+#[derive(Debug, Default)]
+pub struct AtomicPercentiles {
+    p50: AtomicF64,
+    p99: AtomicF64,
+    p999: AtomicF64,
+    max: AtomicF64,
+}
+
+impl AtomicPercentiles {
+    /// Publish.
+    pub fn set(&self, p: PercentilesUs) {
+        self.p50.set(p.p50);
+        self.p99.set(p.p99);
+        self.p999.set(p.p999);
+        self.max.set(p.max);
+    }
+    /// Read.
+    pub fn get(&self) -> PercentilesUs {
+        PercentilesUs {
+            p50: self.p50.get(),
+            p99: self.p99.get(),
+            p999: self.p999.get(),
+            max: self.max.get(),
+        }
+    }
+}
+
+/// Statistics of one loop, written by its thread, read by anyone.
+#[derive(Debug, Default)]
+pub struct LoopStats {
+    /// Iterations since the statistics were last reset.
+    pub ticks: AtomicU64,
+    /// Seconds covered by `ticks`.
+    pub seconds: AtomicF64,
+    /// Period between iterations.
+    pub period_us: AtomicPercentiles,
+    /// Work inside one iteration.
+    pub work_us: AtomicPercentiles,
+    /// Ask the loop to start its statistics afresh.
+    pub reset: AtomicBool,
+}
+
+impl LoopStats {
+    /// Iterations per second since the last reset.
+    pub fn rate_hz(&self) -> f64 {
+        let s = self.seconds.get();
+        if s > 0.0 {
+            self.ticks.load(Ordering::Relaxed) as f64 / s
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Network statistics.
+#[derive(Debug, Default)]
+pub struct NetStats {
+    /// A session is up.
+    pub connected: AtomicBool,
+    /// Sessions opened (1 + reconnects).
+    pub sessions: AtomicU64,
+    /// Cursor samples received.
+    pub cursors: AtomicU64,
+    /// Cursors dropped because the force thread's ring was full.
+    pub cursors_dropped: AtomicU64,
+    /// Cursors the force thread skipped because a newer one was already waiting.
+    pub cursors_skipped: AtomicU64,
+    /// Force commands sent.
+    pub forces_sent: AtomicU64,
+    /// Clock offset server − workstation (ns) and its bound.
+    pub clock_offset_ns: AtomicF64,
+    /// Bound of the offset (ns).
+    pub clock_uncertainty_ns: AtomicF64,
+    /// Round trip of the clock ping the offset estimate used (ns).
+    pub ping_rtt_ns: AtomicU64,
+    /// Cursor → force round trip as the server measured it (its `Stats`).
+    pub force_rtt_us: AtomicPercentiles,
+    /// Cursor received → force sent inside the workstation, the last tick (ns).
+    pub turnaround_ns: AtomicU64,
+    /// Server servo period p99 (µs), from its `Stats`.
+    pub server_period_p99_us: AtomicF64,
+}
+
+/// Everything shared between the threads of one workstation.
+#[derive(Debug)]
+pub struct Shared {
+    /// The sculpting region's field, newest first.
+    pub field: ArcSwapOption<ScalarGrid>,
+    /// The surface samples the probe touches.
+    pub samples: ArcSwapOption<SampleGrid>,
+    /// What the force thread renders besides the field.
+    pub tool: ArcSwap<ForceTool>,
+    /// Points for the renderer.
+    pub render: ArcSwapOption<RenderSnapshot>,
+    /// The last cursor, force and contact.
+    pub haptic: HapticMonitor,
+    /// The force-mapping loop.
+    pub force_loop: LoopStats,
+    /// The simulation loop.
+    pub sim_loop: LoopStats,
+    /// Simulation steps run.
+    pub sim_steps: AtomicU64,
+    /// The network side.
+    pub net: NetStats,
+    /// Events dropped because the simulation's ring was full.
+    pub events_dropped: AtomicU64,
+    /// Every thread ends when set.
+    pub stop: AtomicBool,
+}
+
+impl Default for Shared {
+    fn default() -> Self {
+        Self {
+            field: ArcSwapOption::empty(),
+            samples: ArcSwapOption::empty(),
+            tool: ArcSwap::from_pointee(ForceTool::Touch),
+            render: ArcSwapOption::empty(),
+            haptic: HapticMonitor::default(),
+            force_loop: LoopStats::default(),
+            sim_loop: LoopStats::default(),
+            sim_steps: AtomicU64::new(0),
+            net: NetStats::default(),
+            events_dropped: AtomicU64::new(0),
+            stop: AtomicBool::new(false),
+        }
+    }
+}
+
+impl Shared {
+    /// A fresh shared state.
+    pub fn new() -> Arc<Self> {
+        Arc::new(Self::default())
+    }
+
+    /// Ask every thread to end.
+    pub fn request_stop(&self) {
+        self.stop.store(true, Ordering::Release);
+    }
+
+    /// Whether the threads should end.
+    pub fn stopping(&self) -> bool {
+        self.stop.load(Ordering::Acquire)
+    }
+}
