@@ -1,3 +1,5 @@
-//! End-to-end tests: the real binaries as processes on loopback. One test binary.
+//! End-to-end tests on loopback: the real binaries as processes, and the workstation's threads
+//! against in-process servers with the fake device. One test binary.
 
+mod live;
 mod server_process;
