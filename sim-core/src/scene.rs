@@ -360,8 +360,48 @@ impl Scene {
         tools: &mut dyn FnMut(&mut DynamicGrid) -> Result<usize, ToolError>,
         observer: &mut dyn StepObserver,
     ) -> Result<SculptStepReport, SceneError> {
+        let mut report = self.field_step(dt, tools, observer)?;
+        let region = self.region.as_ref().ok_or(SceneError::NoRegion)?;
+        if region.steps % u64::from(region.params.follow_every.max(1)) == 0 {
+            report.follow = self.follow_observed(observer)?;
+        }
+        Ok(report)
+    }
+
+    /// Only the field's part of a step (clear forces, apply `tools`, integrate `dt`); the points
+    /// do not move until [`Scene::follow_points`]. A live workstation publishes the field between
+    /// the two, so the haptic thread's snapshot does not wait for the points.
+    pub fn step_field(
+        &mut self,
+        dt: f64,
+        tools: &[&dyn GridTool],
+    ) -> Result<SculptStepReport, SceneError> {
+        self.field_step(
+            dt,
+            &mut |model| {
+                let mut n = 0;
+                for t in tools {
+                    n += t.apply(model)?;
+                }
+                Ok(n)
+            },
+            &mut (),
+        )
+    }
+
+    /// Let the points follow the field over the time stepped since they last did (and refit
+    /// them with `refit_every_step`).
+    pub fn follow_points(&mut self) -> Result<FollowReport, SceneError> {
+        self.follow_observed(&mut ())
+    }
+
+    fn field_step(
+        &mut self,
+        dt: f64,
+        tools: &mut dyn FnMut(&mut DynamicGrid) -> Result<usize, ToolError>,
+        observer: &mut dyn StepObserver,
+    ) -> Result<SculptStepReport, SceneError> {
         let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
-        let obj = &mut self.objects[region.object];
         region.model.clear_forces();
         let tool_nodes = tools(&mut region.model)?;
         observer.stage_done(SculptStage::Tools);
@@ -369,26 +409,32 @@ impl Scene {
         observer.stage_done(SculptStage::Integrate);
         region.pending_dt += dt;
         region.steps += 1;
-        let mut follow = FollowReport::default();
-        if region.steps % u64::from(region.params.follow_every.max(1)) == 0 {
-            follow = region.catch_up(obj);
-            observer.stage_done(SculptStage::Follow);
-            if region.params.refit_every_step {
-                refit_moved(
-                    &region.base,
-                    &mut obj.field,
-                    &region.model,
-                    region.follower.moved(),
-                    &mut region.samples,
-                );
-                observer.stage_done(SculptStage::Refit);
-            }
-        }
         Ok(SculptStepReport {
             step,
-            follow,
+            follow: FollowReport::default(),
             tool_nodes,
         })
+    }
+
+    fn follow_observed(
+        &mut self,
+        observer: &mut dyn StepObserver,
+    ) -> Result<FollowReport, SceneError> {
+        let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
+        let obj = &mut self.objects[region.object];
+        let follow = region.catch_up(obj);
+        observer.stage_done(SculptStage::Follow);
+        if region.params.refit_every_step {
+            refit_moved(
+                &region.base,
+                &mut obj.field,
+                &region.model,
+                region.follower.moved(),
+                &mut region.samples,
+            );
+            observer.stage_done(SculptStage::Refit);
+        }
+        Ok(follow)
     }
 
     /// End the stroke: refit moved points' local fields from the grid and make the sculpted

@@ -80,6 +80,9 @@ pub struct Summary {
     pub sim_hz: f64,
     /// Cursor → force round trip measured at the server (µs).
     pub rtt_us: PercentilesUs,
+    /// Baseline in the same run: a bare UDP ping-pong of 64-byte datagrams between two loopback
+    /// sockets (µs), taken right after the session under the same load.
+    pub baseline_udp_rtt_us: PercentilesUs,
     /// Points in the final model.
     pub points: usize,
     /// Triangles of its meshed zero set.
@@ -309,6 +312,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
     let stats = ws.stats();
     let core = ws.finish()?;
     drop(server);
+    let baseline_udp_rtt_us = udp_baseline(2000)?;
     let saved = save(&core, &args.out, scene.mesh_resolution)?;
     let summary = Summary {
         frames: stats.frames,
@@ -316,6 +320,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         force_loop_period_us: stats.force_loop_period_us,
         sim_hz: stats.sim_hz,
         rtt_us: stats.rtt_us,
+        baseline_udp_rtt_us,
         points: saved.points,
         triangles: saved.triangles,
         phases,
@@ -329,7 +334,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         serde_json::to_string_pretty(&summary)?,
     )?;
     println!(
-        "demo: done in {:.1} s. force loop {:.0} Hz (period p50 {:.0} µs, p99 {:.0} µs), simulation {:.0} Hz, cursor→force round trip p50 {:.0} µs p99 {:.0} µs, {} frames; wrote {}",
+        "demo: done in {:.1} s. force loop {:.0} Hz (period p50 {:.0} µs, p99 {:.0} µs), simulation {:.0} Hz, cursor→force round trip p50 {:.0} µs p99 {:.0} µs (bare UDP ping-pong p50 {:.0} µs), {} frames; wrote {}",
         summary.seconds,
         summary.force_loop_hz,
         summary.force_loop_period_us.p50,
@@ -337,10 +342,41 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         summary.sim_hz,
         summary.rtt_us.p50,
         summary.rtt_us.p99,
+        summary.baseline_udp_rtt_us.p50,
         summary.frames,
         args.out.display()
     );
     Ok(summary)
+}
+
+/// A bare UDP ping-pong on loopback, `n` round trips of a 64-byte datagram, the echo on its own
+/// thread: the baseline the cursor → force round trip is compared with.
+pub fn udp_baseline(n: usize) -> anyhow::Result<PercentilesUs> {
+    use std::net::UdpSocket;
+    let a = UdpSocket::bind("127.0.0.1:0")?;
+    let b = UdpSocket::bind("127.0.0.1:0")?;
+    a.connect(b.local_addr()?)?;
+    b.connect(a.local_addr()?)?;
+    b.set_read_timeout(Some(Duration::from_secs(1)))?;
+    a.set_read_timeout(Some(Duration::from_secs(1)))?;
+    let echo = std::thread::spawn(move || {
+        let mut buf = [0u8; 64];
+        for _ in 0..n {
+            if b.recv(&mut buf).is_err() || b.send(&buf).is_err() {
+                break;
+            }
+        }
+    });
+    let mut h = hdrhistogram::Histogram::<u64>::new_with_bounds(100, 10_000_000_000, 3)?;
+    let mut buf = [0u8; 64];
+    for _ in 0..n {
+        let t0 = Instant::now();
+        a.send(&buf)?;
+        a.recv(&mut buf)?;
+        h.saturating_record(t0.elapsed().as_nanos() as u64);
+    }
+    let _ = echo.join();
+    Ok(super::force::percentiles_us(&h))
 }
 
 /// Keeps the in-process server alive.

@@ -202,6 +202,7 @@ impl Workstation {
             force_loop_work_us: s.force_loop.work_us.get(),
             sim_hz: s.sim_loop.rate_hz(),
             sim_step_us: s.sim_loop.work_us.get(),
+            field_step_us: s.field_loop.work_us.get(),
             sim_steps: s.sim_steps.load(Ordering::Relaxed),
             rtt_us: n.force_rtt_us.get(),
             clock_offset_us: n.clock_offset_ns.get() / 1e3,
@@ -262,6 +263,8 @@ pub struct LiveStats {
     pub sim_hz: f64,
     /// Simulation work per step (µs).
     pub sim_step_us: PercentilesUs,
+    /// The field's part of a step, until the snapshot is published (µs).
+    pub field_step_us: PercentilesUs,
     /// Simulation steps run.
     pub sim_steps: u64,
     /// Cursor → force round trip measured by the server (µs).

@@ -294,6 +294,9 @@ pub struct Shared {
     pub force_loop: LoopStats,
     /// The simulation loop.
     pub sim_loop: LoopStats,
+    /// The field's part of each simulation step: tools, integration, publishing (what the force
+    /// thread's snapshot waits for).
+    pub field_loop: LoopStats,
     /// Simulation steps run.
     pub sim_steps: AtomicU64,
     /// The network side.
@@ -314,6 +317,7 @@ impl Default for Shared {
             haptic: HapticMonitor::default(),
             force_loop: LoopStats::default(),
             sim_loop: LoopStats::default(),
+            field_loop: LoopStats::default(),
             sim_steps: AtomicU64::new(0),
             net: NetStats::default(),
             events_dropped: AtomicU64::new(0),

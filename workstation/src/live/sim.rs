@@ -4,8 +4,9 @@
 //! [`SimCore`] is deterministic (no clock, no threads): [`SimCore::input`] consumes the force
 //! thread's [`InputEvent`]s in order (a button press engages the selected tool at the cursor, a
 //! release lets go and **commits** the shape: plastic, the sculpted field becomes the rest state),
-//! [`SimCore::step`] applies the engaged tool and steps the region. The driver [`run`] paces
-//! steps at the region's `dt`, publishes the field grid after every step, and the surface
+//! [`SimCore::step`] applies the engaged tool and steps the region's field. The driver [`run`]
+//! paces steps at the region's `dt`, publishes the field grid right after every field step,
+//! *then* lets the points follow (every [`FOLLOW_EVERY`] steps), and publishes the surface
 //! samples and the points for the renderer at their own rates.
 //!
 //! Tools (the papers' sessions):
@@ -35,6 +36,10 @@ use sim_core::tools::{GridTool, ProbeMode, ProbeSculpt, Profile, Rope};
 use super::scene_file::{SceneFile, ToolKind};
 use super::shared::{ForceTool, InputEvent, RenderSnapshot, Shared};
 use crate::sculpt::script::{Op, profile_of};
+
+/// Points follow the field every this many steps (500 Hz at 1 ms steps: far above any display
+/// rate), after the field is published, so the force thread's snapshot never waits for them.
+pub const FOLLOW_EVERY: u64 = 2;
 
 /// Most waypoints a curve rope keeps.
 pub const MAX_CURVE_POINTS: usize = 64;
@@ -410,10 +415,16 @@ impl SimCore {
             }
         }
         match tool {
-            Some(t) => self.scene.step_with(dt, &[t])?,
-            None => self.scene.step_with(dt, &[])?,
+            Some(t) => self.scene.step_field(dt, &[t])?,
+            None => self.scene.step_field(dt, &[])?,
         };
         self.steps += 1;
+        Ok(())
+    }
+
+    /// Let the points follow the field stepped since they last did.
+    pub fn follow(&mut self) -> anyhow::Result<()> {
+        self.scene.follow_points()?;
         Ok(())
     }
 
@@ -534,6 +545,7 @@ pub fn run(
     let (mut last_render, mut last_samples) = (Instant::now() - render_every, Instant::now());
     let mut next = Instant::now();
     let mut loop_clock = super::force::LoopTimer::new();
+    let mut field_clock = super::force::LoopTimer::new();
     shared.samples.store(core.samples().map(Arc::new));
     let fail = |e: anyhow::Error, reports: &mpsc::Sender<SimReport>| {
         tracing::error!("simulation stopped: {e:#}");
@@ -566,11 +578,17 @@ pub fn run(
         if let Err(e) = core.step(dt) {
             return fail(e, &reports);
         }
+        shared.field.store(core.publish_field());
+        shared.tool.store(Arc::new(core.force_tool()));
+        field_clock.tick(start, Instant::now(), &shared.field_loop);
+        if core.steps() % FOLLOW_EVERY == 0
+            && let Err(e) = core.follow()
+        {
+            return fail(e, &reports);
+        }
         for s in &core.strokes()[strokes..] {
             let _ = reports.send(SimReport::Stroke(s.clone()));
         }
-        shared.field.store(core.publish_field());
-        shared.tool.store(Arc::new(core.force_tool()));
         let now = Instant::now();
         let probing = matches!(core.force_tool(), ForceTool::Probe { .. });
         if core.strokes().len() > strokes
@@ -585,12 +603,14 @@ pub fn run(
         }
         loop_clock.tick(start, Instant::now(), &shared.sim_loop);
         shared.sim_steps.store(core.steps(), Ordering::Relaxed);
-        // Pace at dt; when a step ran long, carry on at once (no catch-up burst).
+        // Pace at dt: sleep to the next deadline; a step that ran long is caught up by the
+        // following ones (no sleep) unless it fell more than 5 steps behind, then the clock
+        // restarts (simulated time then runs slower than wall time, never in a burst).
         next += period;
         let now = Instant::now();
         if next > now {
             std::thread::sleep(next - now);
-        } else {
+        } else if now - next > 5 * period {
             next = now;
         }
     }
