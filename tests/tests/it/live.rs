@@ -59,10 +59,11 @@ fn server_with(
         ..FakeParams::default()
     });
     let monitor = device.monitor();
+    let transport = opts.transport;
     let server = Server::start(device, opts).unwrap();
     let cfg = NetConfig {
         server: server.local_addr(),
-        transport: TransportKind::Udp,
+        transport,
         cert: server.certificate(),
     };
     (server, monitor, cfg)
@@ -179,9 +180,21 @@ stroke = { tool = "paint", path = [[0.025, 0.025, 0.035], [0.0, 0.028, 0.040], [
 }
 
 #[test]
-fn the_force_felt_pressing_a_sphere_is_stiffness_times_depth() {
+fn the_force_felt_pressing_a_sphere_is_stiffness_times_depth_over_udp() {
+    force_is_stiffness_times_depth(TransportKind::Udp);
+}
+
+#[test]
+fn the_force_felt_pressing_a_sphere_is_stiffness_times_depth_over_quic() {
+    force_is_stiffness_times_depth(TransportKind::Quic);
+}
+
+fn force_is_stiffness_times_depth(transport: TransportKind) {
     let scene = scene(TOP_HALF, "");
-    let (_server, monitor, cfg) = server(press_path(0.006));
+    let (_server, monitor, cfg) = server_with(
+        press_path(0.006),
+        ServerOptions::for_tests(transport).unwrap(),
+    );
     let ws = Workstation::start(&scene, ".".into(), cfg, None).unwrap();
     ws.wait_connected(Duration::from_secs(10)).unwrap();
     // Settle in contact, then compare the device's force with k × depth at the cursor the

@@ -94,7 +94,7 @@ impl ForceMapper {
         let t = self.transform;
         let x = t.point_to_scene(cursor.position.as_dvec3());
         let v = t.vector_to_scene(cursor.velocity.as_dvec3());
-        let q = t.rotation_to_scene(DQuat::from(cursor.orientation.as_dquat()));
+        let q = t.rotation_to_scene(cursor.orientation.as_dquat());
         let (out, contact) = if !(x.is_finite() && v.is_finite()) {
             (HapticOutput::idle(MODEL_LIFETIME_S), None)
         } else {

@@ -56,7 +56,7 @@ impl FrameMaker {
         let renderer = Renderer::headless(spec.width, spec.height)?;
         Ok(Self {
             renderer,
-            spec: spec.clone(),
+            spec: *spec,
             camera: None,
             radii: Vec::new(),
             radii_for: None,

@@ -298,7 +298,7 @@ impl SimCore {
             }
             ToolKind::Paint => Active::Paint { painted: 0 },
             ToolKind::ProbePush | ToolKind::ProbePull => Active::Probe(ProbeSculpt {
-                probe: self.probe.clone(),
+                probe: self.probe,
                 mode: if tool == ToolKind::ProbePush {
                     ProbeMode::Push
                 } else {
@@ -581,7 +581,7 @@ pub fn run(
         shared.field.store(core.publish_field());
         shared.tool.store(Arc::new(core.force_tool()));
         field_clock.tick(start, Instant::now(), &shared.field_loop);
-        if core.steps() % FOLLOW_EVERY == 0
+        if core.steps().is_multiple_of(FOLLOW_EVERY)
             && let Err(e) = core.follow()
         {
             return fail(e, &reports);
