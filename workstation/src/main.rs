@@ -29,6 +29,8 @@ enum Command {
     Run(workstation::live::run::RunArgs),
     /// Write a scene's strokes as a fake-device path file for `haptics-server --fake-path file`.
     HandPath(workstation::live::run::HandPathArgs),
+    /// Render a point or mesh file (PLY, OFF, OBJ, XYZ) headless to a PNG.
+    Render(workstation::live::snapshot_png::RenderArgs),
     /// Print what this build can do and how to start.
     Status,
     /// Fit points (a file or gen:sphere:R:N) into an implicit surface; time it, measure its error.
@@ -58,6 +60,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(args) => workstation::live::demo::run(&args).map(|_| ()),
         Command::Run(args) => workstation::live::run::run(&args),
         Command::HandPath(args) => workstation::live::run::hand_path_command(&args),
+        Command::Render(args) => workstation::live::snapshot_png::run(&args),
         Command::Fit(args) => {
             let report = workstation::fit::run(&args)?;
             workstation::fit::print(&report, args.json)

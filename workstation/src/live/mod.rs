@@ -25,6 +25,7 @@ pub mod run;
 pub mod scene_file;
 pub mod shared;
 pub mod sim;
+pub mod snapshot_png;
 pub mod transform;
 
 use std::path::{Path, PathBuf};

@@ -134,8 +134,9 @@ impl AtomicF64 {
     }
 }
 
-/// The last cursor, force and contact (for the renderer and reports).
-#[derive(Debug, Default)]
+/// The last cursor, force and contact (for the renderer and reports); the cursor is NaN until
+/// the first one arrives.
+#[derive(Debug)]
 pub struct HapticMonitor {
     /// Tip in the scene.
     pub cursor: [AtomicF64; 3],
@@ -145,6 +146,20 @@ pub struct HapticMonitor {
     pub contact: [AtomicF64; 3],
     /// Buttons.
     pub buttons: AtomicU64,
+}
+
+impl Default for HapticMonitor {
+    fn default() -> Self {
+        let m = Self {
+            cursor: Default::default(),
+            force: Default::default(),
+            contact: Default::default(),
+            buttons: AtomicU64::new(0),
+        };
+        Self::set3(&m.cursor, DVec3::splat(f64::NAN));
+        Self::set3(&m.contact, DVec3::splat(f64::NAN));
+        m
+    }
 }
 
 impl HapticMonitor {
