@@ -17,7 +17,7 @@ use haptics_client::TransportKind;
 use serde::Serialize;
 
 use super::net::NetConfig;
-use super::scene_file::{SceneFile, ToolKind};
+use super::scene_file::SceneFile;
 use super::shared::PercentilesUs;
 use super::sim::SimReport;
 use super::{LiveStats, Workstation, save};
@@ -166,21 +166,16 @@ pub fn write_hand_path(path: &Path, points: &[(f32, Vec3, u16)]) -> anyhow::Resu
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
-/// Run the scene's phases in order: tools for the strokes are queued for the button presses,
-/// each stroke phase ends when the simulation reports its release, each operation runs on the
-/// simulation thread. `progress` is called as each phase ends.
+/// Run the scene's phases in order: the strokes' tools were queued for the button presses when
+/// the simulation started ([`super::sim::SimCore::new`]), each stroke phase ends when the
+/// simulation reports its release, each operation runs on the simulation thread. `progress` is
+/// called as each phase ends.
 pub fn drive_phases(
     ws: &Workstation,
     scene: &SceneFile,
     deadline: Instant,
     mut progress: impl FnMut(usize, &PhaseReport),
 ) -> anyhow::Result<Vec<PhaseReport>> {
-    let tools: Vec<ToolKind> = scene
-        .phase
-        .iter()
-        .filter_map(|p| p.stroke.as_ref().map(|s| s.tool))
-        .collect();
-    ws.queue_tools(tools)?;
     let mut reports = Vec::new();
     let mut t0 = Instant::now();
     for (i, phase) in scene.phase.iter().enumerate() {

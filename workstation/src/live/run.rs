@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use haptics_client::TransportKind;
 
-use super::demo::{LEAD_IN_S, drive_phases, hand_path, write_hand_path};
+use super::demo::{drive_phases, hand_path, write_hand_path};
 use super::net::NetConfig;
 use super::scene_file::SceneFile;
 use super::{Workstation, save};
@@ -54,6 +54,10 @@ pub struct HandPathArgs {
     /// The path file to write (`t_s x y z buttons` per line).
     #[arg(long, short)]
     pub out: PathBuf,
+    /// Seconds the hand rests before the first stroke. The server's hand starts with the
+    /// server: start `workstation run` within this time (it fits the scene first).
+    #[arg(long, default_value_t = 15.0)]
+    pub lead_in: f64,
 }
 
 /// Read and check a scene file; errors name the file and the field.
@@ -66,14 +70,21 @@ pub fn load_scene(path: &Path) -> anyhow::Result<SceneFile> {
 /// `workstation hand-path`.
 pub fn hand_path_command(args: &HandPathArgs) -> anyhow::Result<()> {
     let scene = load_scene(&args.scene)?;
-    let path = hand_path(&scene, LEAD_IN_S);
+    anyhow::ensure!(
+        args.lead_in.is_finite() && (0.0..=3600.0).contains(&args.lead_in),
+        "--lead-in must be 0..=3600 s (got {})",
+        args.lead_in
+    );
+    let path = hand_path(&scene, args.lead_in);
     write_hand_path(&args.out, &path)?;
     println!(
-        "wrote {} ({} points, {:.1} s); serve it with: haptics-server --device fake --fake-path file --fake-path-file {}",
+        "wrote {} ({} points, {:.1} s, first stroke after {:.0} s); serve it with: haptics-server --device fake --fake-path file --fake-path-file {}\nthen start `workstation run --scene …` within {:.0} s",
         args.out.display(),
         path.len(),
         path.iter().rev().nth(1).map_or(0.0, |p| p.0),
-        args.out.display()
+        args.lead_in,
+        args.out.display(),
+        args.lead_in
     );
     Ok(())
 }
@@ -133,7 +144,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             last = Instant::now();
             let s = ws.stats();
             println!(
-                "{} force {:.0} Hz (p99 {:.0} µs) · sim {:.0} Hz · rtt p50 {:.0} µs · clock ±{:.0} µs · sessions {}",
+                "{} force {:.0} Hz (p99 {:.0} µs) · sim {:.0} Hz · rtt p50 {:.0} µs · clock offset {:.0} ± {:.0} µs · sessions {}",
                 if ws.connected() {
                     "connected"
                 } else {
@@ -143,6 +154,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
                 s.force_loop_period_us.p99,
                 s.sim_hz,
                 s.rtt_us.p50,
+                s.clock_offset_us,
                 s.clock_uncertainty_us,
                 s.sessions
             );

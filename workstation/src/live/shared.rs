@@ -10,7 +10,9 @@
 //! | force → anyone | loop statistics, the last force and contact | atomics in [`HapticMonitor`] and [`LoopStats`] | — |
 //!
 //! Nothing on the force thread's path locks or allocates: ring pushes and pops are wait-free,
-//! `ArcSwap::load` is lock-free, statistics are relaxed atomics.
+//! `ArcSwap::load` is lock-free, statistics are relaxed atomics. Nor does it free: the
+//! simulation keeps each snapshot it replaced until its next replacement, so the last reference
+//! is dropped there, not by the force thread's guard.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

@@ -147,7 +147,12 @@ impl SimCore {
             dir,
             fit,
             selected: file.tools.selected,
-            queue: Default::default(),
+            // A scripted session's strokes engage their tools in order, from the first press.
+            queue: file
+                .phase
+                .iter()
+                .filter_map(|p| p.stroke.as_ref().map(|s| s.tool))
+                .collect(),
             stroke: None,
             last: None,
             strokes: Vec::new(),
@@ -530,6 +535,14 @@ pub enum SimReport {
     Failed(String),
 }
 
+/// Snapshots the simulation replaced, held one more round (see [`run`]).
+#[derive(Default)]
+struct Retired {
+    field: Option<Arc<ScalarGrid>>,
+    samples: Option<Arc<SampleGrid>>,
+    tool: Option<Arc<ForceTool>>,
+}
+
 /// The thread body: paces steps at `dt`, until told to finish or `shared` says stop.
 pub fn run(
     mut core: SimCore,
@@ -546,7 +559,12 @@ pub fn run(
     let mut next = Instant::now();
     let mut loop_clock = super::force::LoopTimer::new();
     let mut field_clock = super::force::LoopTimer::new();
-    shared.samples.store(core.samples().map(Arc::new));
+    // Snapshots replaced here are kept until the next replacement, so their memory is freed on
+    // this thread, not on the force thread when it drops its last guard.
+    let mut retired = Retired {
+        samples: shared.samples.swap(core.samples().map(Arc::new)),
+        ..Retired::default()
+    };
     let fail = |e: anyhow::Error, reports: &mpsc::Sender<SimReport>| {
         tracing::error!("simulation stopped: {e:#}");
         let _ = reports.send(SimReport::Failed(format!("{e:#}")));
@@ -558,7 +576,7 @@ pub fn run(
                 SimCommand::Select(t) => core.select(t),
                 SimCommand::Op(op, reply) => {
                     let r = core.run_op(&op);
-                    shared.samples.store(core.samples().map(Arc::new));
+                    retired.samples = shared.samples.swap(core.samples().map(Arc::new));
                     shared.render.store(Some(Arc::new(core.render_snapshot())));
                     let _ = reply.send(r);
                 }
@@ -578,8 +596,11 @@ pub fn run(
         if let Err(e) = core.step(dt) {
             return fail(e, &reports);
         }
-        shared.field.store(core.publish_field());
-        shared.tool.store(Arc::new(core.force_tool()));
+        retired.field = shared.field.swap(core.publish_field());
+        let tool = core.force_tool();
+        if **shared.tool.load() != tool {
+            retired.tool = Some(shared.tool.swap(Arc::new(tool)));
+        }
         field_clock.tick(start, Instant::now(), &shared.field_loop);
         if core.steps().is_multiple_of(FOLLOW_EVERY)
             && let Err(e) = core.follow()
@@ -594,7 +615,7 @@ pub fn run(
         if core.strokes().len() > strokes
             || (probing && now.duration_since(last_samples) >= samples_every)
         {
-            shared.samples.store(core.samples().map(Arc::new));
+            retired.samples = shared.samples.swap(core.samples().map(Arc::new));
             last_samples = now;
         }
         if now.duration_since(last_render) >= render_every {
