@@ -1,4 +1,5 @@
-//! `workstation`: the commands and threads around `sim-core`.
+//! `workstation`: the commands and threads around `sim-core`. [`live`] is the workstation
+//! process itself (network, force-mapping, simulation and rendering threads; `run`, `demo`).
 //!
 //! Every subcommand of the `workstation` binary is a module here, so it can be tested
 //! without spawning a process. Library code returns errors; only the binary prints them.
