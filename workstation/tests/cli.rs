@@ -1,0 +1,59 @@
+//! The `workstation` binary as a user runs it. (Also makes `cargo test --workspace` build the
+//! binary, which the end-to-end tests in `tests/` start as a process.)
+
+use std::process::Command;
+
+fn workstation() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_workstation"))
+}
+
+#[test]
+fn help_lists_the_live_commands() {
+    let out = workstation().arg("--help").output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for cmd in ["demo", "run", "hand-path", "render", "sculpt", "fit"] {
+        assert!(text.contains(cmd), "`{cmd}` missing from --help:\n{text}");
+    }
+}
+
+#[test]
+fn hand_path_writes_the_demo_strokes_for_the_fake_device() {
+    let dir = std::env::temp_dir().join(format!("ws-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("hand.txt");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/live/demo.toml");
+    let out = workstation()
+        .args(["hand-path", scene, "--lead-in", "2", "-o"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&file).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert!(
+        rows.iter().all(|r| r.len() == 5),
+        "t x y z buttons per line"
+    );
+    assert!(
+        rows.windows(2).all(|w| w[0][0] <= w[1][0]),
+        "time never goes back"
+    );
+    // Three strokes: the button goes down three times, the first after the lead-in.
+    let presses: Vec<f64> = rows
+        .windows(2)
+        .filter(|w| w[0][4] == 0.0 && w[1][4] == 1.0)
+        .map(|w| w[1][0])
+        .collect();
+    assert_eq!(presses.len(), 3, "{text}");
+    assert!(presses[0] >= 2.0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
