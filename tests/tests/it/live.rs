@@ -36,6 +36,7 @@ object = "ball"
 contact = {{ stiffness = {STIFFNESS}, damping = 0.0, friction = 0.0 }}
 rope = {{ radius = 0.015, stiffness = 60.0, max_force = 3.0 }}
 paint = {{ color = [200, 40, 30], radius = 0.005, radius_per_newton = 0.01, max_radius = 0.01 }}
+probe = {{ semi_axes = [0.009, 0.009, 0.009], surface_stiffness = 2e6, sculpt_stiffness = 1000.0 }}
 
 [render]
 width = 160
@@ -177,6 +178,44 @@ stroke = { tool = "paint", path = [[0.025, 0.025, 0.035], [0.0, 0.028, 0.040], [
         reds > 20,
         "the painted stroke is visible: {reds} red pixels"
     );
+}
+
+#[test]
+fn the_shaped_probe_carves_a_dent_and_pulls_material_out_from_inside() {
+    let scene = scene(
+        TOP_HALF,
+        r#"
+[[phase]]
+name = "push"
+stroke = { tool = "probe_push", path = [[0.030, 0.040, 0.0], [0.028, 0.037, 0.0], [0.028, 0.037, -0.01]], seconds = 1.0 }
+[[phase]]
+name = "pull from inside"
+stroke = { tool = "probe_pull", path = [[-0.02, 0.040, -0.02], [-0.026, 0.052, -0.026]], seconds = 1.0 }
+"#,
+    );
+    let (_server, _monitor, cfg) = server(hand_path(&scene, 1.0));
+    let ws = Workstation::start(&scene, ".".into(), cfg, None).unwrap();
+    ws.wait_connected(Duration::from_secs(10)).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    drive_phases(&ws, &scene, deadline, |_, _| {}).unwrap();
+    let core = ws.finish().unwrap();
+    let ball = &core.scene().objects()[0];
+    let near = |c: DVec3, r: f64| {
+        let c = c.normalize() * RADIUS;
+        ball.positions
+            .iter()
+            .filter(move |p| p.distance(c) < r)
+            .map(|p| p.length() - RADIUS)
+    };
+    // Under the push path the surface went in, and stayed in after the release.
+    let dent = near(DVec3::new(0.028, 0.037, -0.005), 0.006).fold(0.0, f64::min);
+    assert!(dent < -1e-3, "deepest point under the push: {dent:e} m");
+    // Where the probe left the material from inside, the material came out with it.
+    let bulge = near(DVec3::new(-0.023, 0.046, -0.023), 0.008).fold(0.0, f64::max);
+    assert!(bulge > 1e-3, "highest point above the pull: {bulge:e} m");
+    // Elsewhere on the region's surface nothing moved.
+    let calm = near(DVec3::new(0.0, 0.03, 0.04), 0.01).fold(0.0, |a: f64, d| a.max(d.abs()));
+    assert!(calm < 5e-4, "untouched surface moved {calm:e} m");
 }
 
 #[test]
