@@ -110,7 +110,7 @@ stroke = { tool = "paint", path = [[0.025, 0.025, 0.035], [0.0, 0.028, 0.040], [
     let ws = Workstation::start(&scene, ".".into(), cfg, None).unwrap();
     ws.wait_connected(Duration::from_secs(10)).unwrap();
     let deadline = Instant::now() + Duration::from_secs(60);
-    let phases = drive_phases(&ws, &scene, deadline, |_, _| {}).unwrap();
+    let phases = drive_phases(&ws, &scene, deadline, || false, |_, _| {}).unwrap();
     assert_eq!(phases.len(), 2);
     // The rope let go more than a second ago (paint stroke + rests): the bump must still be
     // there, committed, not sprung back.
@@ -197,7 +197,7 @@ stroke = { tool = "probe_pull", path = [[-0.02, 0.040, -0.02], [-0.026, 0.052, -
     let ws = Workstation::start(&scene, ".".into(), cfg, None).unwrap();
     ws.wait_connected(Duration::from_secs(10)).unwrap();
     let deadline = Instant::now() + Duration::from_secs(60);
-    drive_phases(&ws, &scene, deadline, |_, _| {}).unwrap();
+    drive_phases(&ws, &scene, deadline, || false, |_, _| {}).unwrap();
     let core = ws.finish().unwrap();
     let ball = &core.scene().objects()[0];
     let near = |c: DVec3, r: f64| {

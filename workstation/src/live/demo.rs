@@ -174,6 +174,7 @@ pub fn drive_phases(
     ws: &Workstation,
     scene: &SceneFile,
     deadline: Instant,
+    cancelled: impl Fn() -> bool,
     mut progress: impl FnMut(usize, &PhaseReport),
 ) -> anyhow::Result<Vec<PhaseReport>> {
     let mut reports = Vec::new();
@@ -181,6 +182,7 @@ pub fn drive_phases(
     for (i, phase) in scene.phase.iter().enumerate() {
         let report = if let Some(stroke) = &phase.stroke {
             let done = loop {
+                anyhow::ensure!(!cancelled(), "interrupted during phase `{}`", phase.name);
                 anyhow::ensure!(
                     Instant::now() < deadline,
                     "phase `{}`: the stroke did not end before the deadline (is the device following the hand path? connected: {})",
@@ -230,7 +232,12 @@ fn op_kind(op: &crate::sculpt::script::Op) -> String {
 /// Run the demo; see the module doc.
 pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
     let started = Instant::now();
-    let deadline = started + Duration::from_secs_f64(args.timeout_s.max(1.0));
+    anyhow::ensure!(
+        args.timeout_s.is_finite() && (1.0..=86_400.0).contains(&args.timeout_s),
+        "--timeout-s must be 1..=86400 s (got {})",
+        args.timeout_s
+    );
+    let deadline = started + Duration::from_secs_f64(args.timeout_s);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let (text, dir) = match &args.scene {
@@ -292,16 +299,22 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         .force_loop
         .reset
         .store(true, std::sync::atomic::Ordering::Relaxed);
-    let phases = drive_phases(&ws, &scene, deadline, |i, r| {
-        println!(
-            "[{}/{n_phases}] {} ({}, {:.1} s): {}",
-            i + 1,
-            r.name,
-            r.kind,
-            r.seconds,
-            r.summary
-        );
-    })?;
+    let phases = drive_phases(
+        &ws,
+        &scene,
+        deadline,
+        || false,
+        |i, r| {
+            println!(
+                "[{}/{n_phases}] {} ({}, {:.1} s): {}",
+                i + 1,
+                r.name,
+                r.kind,
+                r.seconds,
+                r.summary
+            );
+        },
+    )?;
     // One last frame of the result.
     std::thread::sleep(Duration::from_secs_f64(scene.render.interval_s * 1.5));
     let stats = ws.stats();

@@ -196,8 +196,8 @@ pub fn rope_output(x: DVec3, anchor: DVec3, stiffness: f64, max_force: f64) -> H
 pub struct ForcePorts {
     /// Cursors from the network side.
     pub cursors: rtrb::Consumer<CursorMsg>,
-    /// A fresh sender after each (re)connect.
-    pub senders: rtrb::Consumer<HotSender>,
+    /// A fresh sender after each (re)connect, `None` when the session ended.
+    pub senders: rtrb::Consumer<Option<HotSender>>,
     /// Events to the simulation.
     pub events: rtrb::Producer<InputEvent>,
 }
@@ -320,7 +320,8 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
     let mut clock = LoopTimer::new();
     while !shared.stopping() {
         while let Ok(s) = ports.senders.pop() {
-            sender = Some(s);
+            // Rare (once per session); dropping an old sender here is the one free on this path.
+            sender = s;
             mapper.field.reset();
         }
         let mut newest = None;

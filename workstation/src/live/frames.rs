@@ -70,7 +70,7 @@ impl FrameMaker {
 
     /// Render `snap` with the haptic overlays from `shared`.
     pub fn render(&mut self, snap: &RenderSnapshot, shared: &Shared) -> anyhow::Result<&Image> {
-        let key = (snap.positions.len(), snap.steps);
+        let key = points_key(snap);
         if self.radii_for != Some(key) {
             self.radii = splat_radii(&snap.positions);
             self.radii_for = Some(key);
@@ -133,6 +133,21 @@ impl FrameMaker {
     }
 }
 
+/// Changes when the points change (count, positions or colours): a sum over them, O(points),
+/// far cheaper than the neighbour search it saves.
+fn points_key(snap: &RenderSnapshot) -> (usize, u64) {
+    let mut h = 0u64;
+    for (p, c) in snap.positions.iter().zip(&snap.colors) {
+        for v in p.to_array() {
+            h = h.wrapping_mul(31).wrapping_add(v.to_bits());
+        }
+        h = h
+            .wrapping_mul(31)
+            .wrapping_add(u64::from(u32::from_le_bytes([c[0], c[1], c[2], 0])));
+    }
+    (snap.positions.len(), h)
+}
+
 /// Frames written so far, shared with the session.
 #[derive(Debug, Default)]
 pub struct FrameCount(pub AtomicU64);
@@ -159,7 +174,7 @@ pub fn run(
         };
         // Nothing moved and nobody touched: no new frame.
         let key = (
-            snap.steps,
+            points_key(&snap),
             shared.haptic.cursor().to_array().map(f64::to_bits),
         );
         if last_steps == Some(key) {

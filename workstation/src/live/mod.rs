@@ -69,8 +69,17 @@ impl Workstation {
         net_cfg: NetConfig,
         frames_dir: Option<PathBuf>,
     ) -> anyhow::Result<Self> {
+        // Everything that can fail comes before the first thread starts.
         let core = SimCore::new(scene, dir)?;
         let mapper = force::ForceMapper::new(scene)?;
+        let frames = match frames_dir {
+            Some(dir) => {
+                std::fs::create_dir_all(&dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+                Some((dir, frames::FrameMaker::new(&scene.render)?))
+            }
+            None => None,
+        };
         let shared = Shared::new();
         let (cursor_tx, cursor_rx) = rtrb::RingBuffer::new(CURSOR_RING);
         let (sender_tx, sender_rx) = rtrb::RingBuffer::new(4);
@@ -118,9 +127,7 @@ impl Workstation {
             spawn("network", Box::new(move || net::run(net_cfg, ports, s)))?,
         ));
         let count = Arc::new(FrameCount::default());
-        if let Some(dir) = frames_dir {
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-            let maker = frames::FrameMaker::new(&scene.render)?;
+        if let Some((dir, maker)) = frames {
             let (s, c) = (Arc::clone(&shared), Arc::clone(&count));
             let interval = Duration::from_secs_f64(scene.render.interval_s);
             threads.push((

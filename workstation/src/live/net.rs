@@ -6,8 +6,9 @@
 //! cursor goes into the force thread's ring (which it unparks); a `ClockPing` every 100 ms feeds
 //! a [`ClockEstimator`] (offset and its bound in [`NetStats`](super::shared::NetStats)); the
 //! server's periodic `Stats` give the cursor → force round trip it measured. When the session
-//! ends (server gone or restarted, connection lost, idle) the loop reconnects with backoff
-//! (100 ms doubling to 2 s) until the workstation stops; then it says `Bye`.
+//! ends (server gone or restarted, connection lost, no cursor for [`CURSOR_SILENCE`]) the force
+//! thread is told to drop its sender and the loop reconnects with backoff (100 ms doubling to
+//! 2 s; reset after a session that lasted) until the workstation stops; then it says `Bye`.
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -22,6 +23,10 @@ use protocol::{ClockEstimator, ClockSample, Control};
 use rustls::pki_types::CertificateDer;
 
 use super::shared::{CursorMsg, NetStats, PercentilesUs, Shared};
+
+/// A session whose cursor stream stops this long is over (the server streams at 1 kHz; UDP
+/// has no connection to notice a vanished peer).
+pub const CURSOR_SILENCE: Duration = Duration::from_millis(500);
 
 /// Where and how to connect.
 #[derive(Debug, Clone)]
@@ -39,8 +44,8 @@ pub struct NetConfig {
 pub struct NetPorts {
     /// Cursors to the force thread.
     pub cursors: rtrb::Producer<CursorMsg>,
-    /// A sender per session to the force thread.
-    pub senders: rtrb::Producer<HotSender>,
+    /// A sender per session to the force thread, `None` when the session ended.
+    pub senders: rtrb::Producer<Option<HotSender>>,
     /// The force thread, unparked on every cursor.
     pub force_thread: Thread,
 }
@@ -65,7 +70,7 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
             ccfg.client_name = format!("workstation {}", std::process::id());
             match Client::connect(&ccfg).await {
                 Ok(client) => {
-                    backoff = Duration::from_millis(100);
+                    let began = Instant::now();
                     shared.net.sessions.fetch_add(1, Ordering::Relaxed);
                     tracing::info!(
                         server = %cfg.server,
@@ -73,11 +78,23 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
                         session = client.welcome.session_id,
                         "session up"
                     );
-                    match session(client, &mut ports, &shared).await {
-                        Ok(()) => tracing::info!("session closed"),
-                        Err(e) => tracing::warn!("session lost: {e}; reconnecting"),
-                    }
+                    let result = session(client, &mut ports, &shared).await;
                     shared.net.connected.store(false, Ordering::Release);
+                    // The force thread drops its sender: nothing more goes to a dead session.
+                    let _ = ports.senders.push(None);
+                    match result {
+                        Ok(()) => tracing::info!("session closed"),
+                        Err(e) => {
+                            tracing::warn!("session lost: {e}; reconnecting");
+                            // Back off unless the session had been healthy for a while, so a
+                            // session that fails right after its handshake cannot spin.
+                            if began.elapsed() > Duration::from_secs(2) {
+                                backoff = Duration::from_millis(100);
+                            }
+                            tokio::time::sleep(backoff).await;
+                            backoff = (backoff * 2).min(Duration::from_secs(2));
+                        }
+                    }
                 }
                 Err(e) => {
                     tracing::debug!("connect to {} failed: {e}", cfg.server);
@@ -101,7 +118,7 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
         .map_err(|_| ClientError::Timeout("the first cursor sample"))??;
     let (mut rx, tx) = hot.split();
     // One sender per session; the ring has room for a few (the force thread takes them at once).
-    if ports.senders.push(tx).is_err() {
+    if ports.senders.push(Some(tx)).is_err() {
         return Err(ClientError::Protocol(
             "force thread not taking senders".into(),
         ));
@@ -121,8 +138,8 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
             return Ok(());
         }
         tokio::select! {
-            r = rx.recv_cursor() => {
-                let (packet, cursor) = r?;
+            r = tokio::time::timeout(CURSOR_SILENCE, rx.recv_cursor()) => {
+                let (packet, cursor) = r.map_err(|_| ClientError::Timeout("cursor samples (the server went silent)"))??;
                 push_cursor(ports, &shared.net, CursorMsg::new(&packet, cursor, Instant::now()));
             }
             msg = control.recv() => match msg? {

@@ -98,6 +98,12 @@ extern "C" fn on_sigint(_: libc::c_int) {
 /// `workstation run`.
 pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let scene = load_scene(&args.scene)?;
+    if let Some(s) = args.seconds {
+        anyhow::ensure!(
+            s.is_finite() && s > 0.0 && s <= 1e7,
+            "--seconds must be positive and at most 1e7 (got {s})"
+        );
+    }
     let dir = args
         .scene
         .parent()
@@ -124,21 +130,29 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
                 .seconds
                 .is_some_and(|s| started.elapsed().as_secs_f64() >= s)
     };
+    // Phases run once a session is up; Ctrl-C or --seconds end them (the model is saved
+    // either way, and an error is reported after saving).
+    let mut outcome = Ok(());
     if !scene.phase.is_empty() {
-        let deadline = started + Duration::from_secs_f64(args.seconds.unwrap_or(3600.0));
-        ws.wait_connected(Duration::from_secs(30))?;
-        drive_phases(&ws, &scene, deadline, |i, r| {
-            println!(
-                "[{}/{}] {}: {}",
-                i + 1,
-                scene.phase.len(),
-                r.name,
-                r.summary
-            );
-        })?;
+        let deadline = started + Duration::from_secs_f64(args.seconds.unwrap_or(1e7));
+        while !ws.connected() && !done() {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        if !done() {
+            outcome = drive_phases(&ws, &scene, deadline, done, |i, r| {
+                println!(
+                    "[{}/{}] {}: {}",
+                    i + 1,
+                    scene.phase.len(),
+                    r.name,
+                    r.summary
+                );
+            })
+            .map(|_| ());
+        }
     }
     let mut last = Instant::now();
-    while !done() {
+    while outcome.is_ok() && !done() {
         std::thread::sleep(Duration::from_millis(50));
         if last.elapsed() >= Duration::from_secs(1) {
             last = Instant::now();
@@ -168,5 +182,5 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         saved.triangles,
         args.out.display()
     );
-    Ok(())
+    outcome
 }

@@ -487,6 +487,9 @@ impl SceneFile {
             return Err(err("render.view_dir", "must be a finite non-zero vector"));
         }
         positive("render.interval_s", r.interval_s)?;
+        if r.interval_s > 3600.0 {
+            return Err(err("render.interval_s", "at most 3600 s"));
+        }
         if self.mesh_resolution < 8 || self.mesh_resolution > 1024 {
             return Err(err("mesh_resolution", "must be 8..=1024"));
         }

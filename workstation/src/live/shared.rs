@@ -3,16 +3,19 @@
 //! | from → to | what | how | when full / empty |
 //! |---|---|---|---|
 //! | network → force | [`CursorMsg`] | `rtrb` ring, 64 | full: the newest cursor is dropped and counted (the force thread is late anyway); empty: the force thread parks until the network side unparks it |
-//! | network → force | a new [`crate::live::force::ForceSink`] after each (re)connect | `rtrb` ring, 4 | full: cannot happen (one per connect, taken every tick) |
+//! | network → force | `Some(HotSender)` after each (re)connect, `None` when the session ends | `rtrb` ring, 4 | full: cannot happen (two per session, taken every tick) |
 //! | force → simulation | [`InputEvent`] (cursor in the scene, buttons, contact, force) | `rtrb` ring, 4096 | full: the event is dropped and counted (the simulation is inside a long operation; it sees a jump when it is back) |
 //! | simulation → force | the field grid snapshot and the [`ForceTool`] | [`ArcSwapOption`] / [`ArcSwap`]: immutable, swapped, never locked against the reader | the force thread always reads the newest; a missing grid means no contact |
 //! | simulation → rendering | [`RenderSnapshot`] | [`ArcSwapOption`] | the renderer draws the newest |
 //! | force → anyone | loop statistics, the last force and contact | atomics in [`HapticMonitor`] and [`LoopStats`] | — |
 //!
-//! Nothing on the force thread's path locks or allocates: ring pushes and pops are wait-free,
-//! `ArcSwap::load` is lock-free, statistics are relaxed atomics. Nor does it free: the
-//! simulation keeps each snapshot it replaced until its next replacement, so the last reference
-//! is dropped there, not by the force thread's guard.
+//! The force thread's per-tick path takes no lock and allocates nothing on UDP: ring pushes and
+//! pops are wait-free, `ArcSwap::load` is lock-free, statistics are relaxed atomics. On QUIC,
+//! quinn copies each datagram into a `Bytes` and locks its connection inside `send_datagram`.
+//! Frees are kept off it as far as the hand-offs allow: the simulation holds each snapshot it
+//! replaced until its next replacement, so the last reference is normally dropped there (only a
+//! force thread preempted across two replacements drops one itself), and a session's sender is
+//! dropped once per session.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

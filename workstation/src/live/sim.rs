@@ -13,7 +13,8 @@
 //! - `rope`: press anywhere; the rope attaches at the surface point nearest the tip and pulls
 //!   the surface along its normal by `k·(tip − picked)·n` (capped at `max_force`); the user
 //!   feels the spring to the moving attachment.
-//! - `rope_curve`: the tip's path while pressed, projected onto the surface, becomes the rope.
+//! - `rope_curve`: the tip's path while pressed, projected onto the (rest) surface, becomes the
+//!   rope; it pulls by `k·(height of the tip above the surface)`, capped at `max_force`.
 //! - `paint`: while pressed and touching, the brush paints at the contact point, its radius
 //!   growing with the pressing force.
 //! - `probe_push` / `probe_pull`: the shaped probe carves (difference) or, pressed inside the
@@ -215,13 +216,31 @@ impl SimCore {
         };
         match &self.stroke {
             Some(Stroke {
-                active: Active::Rope { picked, normal, .. },
+                tool,
+                active:
+                    Active::Rope {
+                        rope,
+                        picked,
+                        normal,
+                    },
                 ..
-            }) => ForceTool::Rope {
-                anchor: self.attachment(*picked, *normal),
-                stiffness: t.rope.stiffness,
-                max_force: t.rope.max_force,
-            },
+            }) => {
+                // A curve rope holds the surface where the tip last passed; a point rope where
+                // it was picked.
+                let (p, n) = match (tool, rope.path.last()) {
+                    (ToolKind::RopeCurve, Some(&last)) => {
+                        let field = &self.scene.objects()[self.region_object].field;
+                        let n = field.value_and_gradient(last).1.try_normalize();
+                        (last, n.unwrap_or(*normal))
+                    }
+                    _ => (*picked, *normal),
+                };
+                ForceTool::Rope {
+                    anchor: self.attachment(p, n),
+                    stiffness: t.rope.stiffness,
+                    max_force: t.rope.max_force,
+                }
+            }
             Some(Stroke {
                 active: Active::Probe(_),
                 ..
@@ -376,17 +395,29 @@ impl SimCore {
                     picked,
                     normal,
                 } => {
-                    let pull = t.rope.stiffness * (e.position - *picked).dot(*normal);
+                    // Point rope: how far the tip is pulled out along the picked normal. Curve
+                    // rope: how far the tip is above the (rest) surface where it is now.
+                    let out = if s.tool == ToolKind::RopeCurve {
+                        self.scene.objects()[self.region_object]
+                            .field
+                            .value(e.position)
+                    } else {
+                        (e.position - *picked).dot(*normal)
+                    };
+                    let pull = t.rope.stiffness * out;
                     rope.strength = pull.clamp(-t.rope.max_force, t.rope.max_force);
-                    if s.tool == ToolKind::RopeCurve
-                        && rope.path.len() < MAX_CURVE_POINTS
-                        && let Some((c, _)) = e.contact
-                        && rope
-                            .path
-                            .last()
-                            .is_some_and(|l| l.distance(c) > t.rope.radius * 0.5)
-                    {
-                        rope.path.push(c);
+                    if s.tool == ToolKind::RopeCurve && rope.path.len() < MAX_CURVE_POINTS {
+                        // The tip's path projected onto the rest surface becomes the rope.
+                        let o = &self.scene.objects()[self.region_object];
+                        let c = o.field.project_to_zero_set(e.position).point;
+                        if c.is_finite()
+                            && rope
+                                .path
+                                .last()
+                                .is_some_and(|l| l.distance(c) > t.rope.radius * 0.5)
+                        {
+                            rope.path.push(c);
+                        }
                     }
                     tool = Some(&*rope);
                 }
@@ -481,14 +512,14 @@ impl SimCore {
         self.scene.close_region()?;
         let before = self.names.len();
         let dt = self.file.region.dt;
-        let (_, summary) = crate::sculpt::ops::run_op(
+        let result = crate::sculpt::ops::run_op(
             &mut self.scene,
             &mut self.names,
             op,
             dt,
             &self.dir,
             &self.fit,
-        )?;
+        );
         self.hidden.resize(self.names.len(), false);
         if let Op::Csg { a, b, .. } = op
             && self.names.len() > before
@@ -503,13 +534,28 @@ impl SimCore {
                 }
             }
         }
+        // Reopened whether or not the operation worked: a failed one leaves the scene as it was.
         self.scene.open_region(
             self.region_object,
             self.bounds.0,
             self.bounds.1,
             self.params,
         )?;
-        Ok(summary)
+        Ok(result?.1)
+    }
+
+    /// Whether a stroke is engaged.
+    pub fn engaged(&self) -> bool {
+        self.stroke.is_some()
+    }
+
+    /// Let go of an engaged stroke as if the button were released (the session dropped).
+    pub fn release_engaged(&mut self) -> anyhow::Result<()> {
+        if let Some(mut e) = self.last {
+            e.buttons &= !1;
+            self.input(&e)?;
+        }
+        Ok(())
     }
 }
 
@@ -567,6 +613,9 @@ pub fn run(
     };
     let fail = |e: anyhow::Error, reports: &mpsc::Sender<SimReport>| {
         tracing::error!("simulation stopped: {e:#}");
+        // Nothing to feel from a dead simulation: no field, no tool spring.
+        shared.field.store(None);
+        shared.tool.store(Arc::new(ForceTool::Touch));
         let _ = reports.send(SimReport::Failed(format!("{e:#}")));
     };
     while !shared.stopping() {
@@ -593,6 +642,13 @@ pub fn run(
                 return fail(e, &reports);
             }
         }
+        // The session dropped mid-stroke: let go rather than keep acting at a stale cursor.
+        if core.engaged()
+            && !shared.net.connected.load(Ordering::Acquire)
+            && let Err(e) = core.release_engaged()
+        {
+            return fail(e, &reports);
+        }
         if let Err(e) = core.step(dt) {
             return fail(e, &reports);
         }
@@ -611,7 +667,8 @@ pub fn run(
             let _ = reports.send(SimReport::Stroke(s.clone()));
         }
         let now = Instant::now();
-        let probing = matches!(core.force_tool(), ForceTool::Probe { .. });
+        // The probe feels samples that move only while it sculpts (and at releases, above).
+        let probing = core.engaged() && matches!(core.force_tool(), ForceTool::Probe { .. });
         if core.strokes().len() > strokes
             || (probing && now.duration_since(last_samples) >= samples_every)
         {
@@ -634,5 +691,96 @@ pub fn run(
         } else if now - next > 5 * period {
             next = now;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DQuat;
+
+    fn core(selected: &str) -> SimCore {
+        let scene = SceneFile::parse(&format!(
+            r#"
+[[object]]
+name = "ball"
+generate = {{ shape = "sphere", size = 0.05, points = 2000, seed = 2 }}
+[region]
+object = "ball"
+min = [-0.05, 0.0, -0.05]
+max = [0.05, 0.06, 0.05]
+spacing = 0.0025
+band = 0.008
+[tools]
+selected = "{selected}"
+rope = {{ radius = 0.01, stiffness = 60.0, max_force = 3.0 }}
+"#
+        ))
+        .unwrap();
+        SimCore::new(&scene, ".".into()).unwrap()
+    }
+
+    fn at(p: DVec3, buttons: u16) -> InputEvent {
+        InputEvent {
+            position: p,
+            velocity: DVec3::ZERO,
+            orientation: DQuat::IDENTITY,
+            buttons,
+            force: DVec3::ZERO,
+            contact: None,
+        }
+    }
+
+    fn lift_near(core: &SimCore, c: DVec3) -> f64 {
+        core.scene().objects()[0]
+            .positions
+            .iter()
+            .filter(|p| p.distance(c) < 0.006)
+            .map(|p| p.length() - 0.05)
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    #[test]
+    fn a_curve_rope_pulls_along_the_tips_path_and_the_shape_stays() {
+        let mut c = core("rope_curve");
+        // Press above the surface, slide 4 cm over it 8 mm out, release.
+        let (a, b) = (DVec3::new(-0.02, 0.05, 0.0), DVec3::new(0.02, 0.05, 0.0));
+        let to_surface = |p: DVec3| p.normalize() * 0.058;
+        c.input(&at(to_surface(a), 1)).unwrap();
+        for k in 0..=400 {
+            let p = to_surface(a.lerp(b, k as f64 / 400.0));
+            c.input(&at(p, 1)).unwrap();
+            c.step(1e-3).unwrap();
+            if k % 2 == 0 {
+                c.follow().unwrap();
+            }
+        }
+        c.input(&at(to_surface(b), 0)).unwrap();
+        for _ in 0..50 {
+            c.step(1e-3).unwrap();
+        }
+        c.follow().unwrap();
+        assert_eq!(c.strokes().len(), 1);
+        // Both ends and the middle of the path rose, not only where it was pressed.
+        for x in [-0.02, 0.0, 0.02] {
+            let p = DVec3::new(x, 0.05, 0.0).normalize() * 0.05;
+            let lift = lift_near(&c, p);
+            assert!(
+                lift > 1e-3,
+                "surface under the curve at x = {x}: {lift:e} m"
+            );
+        }
+    }
+
+    #[test]
+    fn a_failed_operation_leaves_the_scene_usable() {
+        let mut c = core("touch");
+        let bad: Op = toml::from_str(
+            "kind = \"csg\"\nop = \"union\"\na = \"ball\"\nb = \"nothing\"\nresult = \"r\"",
+        )
+        .unwrap();
+        assert!(c.run_op(&bad).is_err());
+        c.step(1e-3).unwrap();
+        assert!(c.publish_field().is_some(), "the region is open again");
     }
 }
