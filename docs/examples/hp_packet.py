@@ -18,7 +18,7 @@ def decode(data: bytes) -> dict:
     magic, version, kind, flags, session, sequence, timestamp_ns = HEADER.unpack_from(data)
     if magic != b"HP":
         raise ValueError(f"bad magic {magic!r}")
-    if version != 1:
+    if version != 2:
         raise ValueError(f"unsupported version {version}")
     out = {"kind": kind, "flags": flags, "session": session, "sequence": sequence,
            "timestamp_ns": timestamp_ns}

@@ -37,7 +37,7 @@ pub use seq::{Arrival, SequenceStats, SequenceTracker};
 pub use session::{Inbound, Outbound};
 
 /// Version byte carried in every packet header and in `Hello`/`Welcome`.
-pub const PROTOCOL_VERSION: u8 = 1;
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// First two bytes of every hot-path packet: ASCII `"HP"`.
 pub const MAGIC: [u8; 2] = *b"HP";

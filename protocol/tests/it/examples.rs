@@ -60,7 +60,7 @@ pub fn controls() -> Vec<(&'static str, Control)> {
         (
             "hello",
             Control::Hello(Hello {
-                protocol_version: 1,
+                protocol_version: protocol::PROTOCOL_VERSION,
                 client_name: "ws".into(),
                 requested_rate_hz: 1000,
             }),
@@ -68,7 +68,7 @@ pub fn controls() -> Vec<(&'static str, Control)> {
         (
             "welcome",
             Control::Welcome(Welcome {
-                protocol_version: 1,
+                protocol_version: protocol::PROTOCOL_VERSION,
                 device_name: "fake".into(),
                 dof_input: 6,
                 dof_output: 3,
