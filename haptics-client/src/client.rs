@@ -176,30 +176,19 @@ impl ControlChannel {
     }
 }
 
-enum HotSocket {
-    /// Receive through tokio; send through a clone of the same socket with a plain
-    /// non-blocking `send`, which (unlike tokio's `try_send`) does not depend on the reactor
-    /// having seen the socket writable yet: under load that made the first packet vanish.
-    Udp(tokio::net::UdpSocket, std::net::UdpSocket),
-    // The endpoint is held so its socket lives as long as the connection.
-    Quic(quinn::Connection, #[allow(dead_code)] quinn::Endpoint),
-}
-
-/// The hot path of a session.
+/// The hot path of a session: a [`HotReceiver`] and a [`HotSender`] over the same socket
+/// (UDP) or connection (QUIC), plus the UDP opener until the stream is up.
 pub struct HotPath {
-    socket: HotSocket,
-    outbound: Outbound,
-    inbound: Inbound,
+    rx: HotReceiver,
+    tx: HotSender,
     key: Option<SessionKey>,
-    clock: MonoClock,
-    buf: [u8; MAX_PACKET_BYTES],
     streaming: bool,
 }
 
 impl std::fmt::Debug for HotPath {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("HotPath")
-            .field("session", &self.inbound.session())
+            .field("session", &self.rx.inbound.session())
             .finish()
     }
 }
@@ -207,70 +196,40 @@ impl std::fmt::Debug for HotPath {
 impl HotPath {
     /// The next authentic cursor packet (rejected ones are counted in [`HotPath::rejects`]).
     pub async fn recv_cursor(&mut self) -> Result<(Packet, CursorSample), ClientError> {
-        let mut buf = [0u8; MAX_PACKET_BYTES + 1];
-        loop {
-            let bytes: &[u8] = match &self.socket {
-                HotSocket::Udp(s, _) => {
-                    // Until the first cursor arrives, re-send the opener every 100 ms: the
-                    // server learns our address from it, and UDP may lose it.
-                    let n = if self.streaming {
-                        s.recv(&mut buf).await?
-                    } else {
-                        match tokio::time::timeout(Duration::from_millis(100), s.recv(&mut buf))
-                            .await
-                        {
-                            Ok(n) => n?,
-                            Err(_) => {
-                                self.send_force(&zero_command())?;
-                                continue;
-                            }
-                        }
-                    };
-                    &buf[..n]
+        if !self.streaming && matches!(self.rx.socket, ReceiverSocket::Udp(_)) {
+            // Until the first cursor arrives, re-send the opener every 100 ms: the server
+            // learns our address from it, and UDP may lose it. (Receiving is cancel-safe.)
+            loop {
+                match tokio::time::timeout(Duration::from_millis(100), self.rx.recv_cursor()).await
+                {
+                    Ok(r) => {
+                        self.streaming = r.is_ok();
+                        return r;
+                    }
+                    Err(_) => self.send_force(&zero_command())?,
                 }
-                HotSocket::Quic(c, _) => {
-                    let d = c.read_datagram().await.map_err(|_| ClientError::Closed)?;
-                    let n = d.len().min(buf.len());
-                    buf[..n].copy_from_slice(&d[..n]);
-                    &buf[..n]
-                }
-            };
-            if let Ok(p) = self.inbound.accept(bytes)
-                && let Body::Cursor(c) = p.body
-            {
-                self.streaming = true;
-                return Ok((p, c));
             }
         }
+        let r = self.rx.recv_cursor().await;
+        self.streaming |= r.is_ok();
+        r
     }
 
     /// Send a force command now (non-blocking; dropped if the socket buffer is full: a newer
     /// command will follow, and the server's watchdog covers a gap).
     pub fn send_force(&mut self, cmd: &ForceCommand) -> Result<(), ClientError> {
-        let len = self
-            .outbound
-            .encode(self.clock.now_ns(), Body::Force(*cmd), &mut self.buf);
-        let bytes = self.buf;
-        match self.send_raw(&bytes[..len]) {
-            Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
-            other => other,
-        }
+        self.tx.send_force(cmd)
     }
 
     /// Send arbitrary bytes on the hot path (tests: forged and malformed packets). Unlike
     /// [`HotPath::send_force`], a full socket buffer is an error (`WouldBlock`), not a drop.
     pub fn send_raw(&self, bytes: &[u8]) -> Result<(), ClientError> {
-        match &self.socket {
-            HotSocket::Udp(_, s) => s.send(bytes).map(|_| ()).map_err(ClientError::Io),
-            HotSocket::Quic(c, _) => c
-                .send_datagram(bytes::Bytes::copy_from_slice(bytes))
-                .map_err(|e| ClientError::Quic(e.to_string())),
-        }
+        self.tx.send_raw(bytes)
     }
 
     /// Rejected incoming packets by reason.
     pub fn rejects(&self) -> &RejectCounts {
-        self.inbound.rejects()
+        self.rx.rejects()
     }
 
     /// The session's MAC key (UDP only).
@@ -281,47 +240,37 @@ impl HotPath {
     /// The client clock that stamps force commands; use it for `ClockPing.t0_ns` and the
     /// pong's receive time so [`protocol::ClockEstimator`] relates the same clocks.
     pub fn clock(&self) -> MonoClock {
-        self.clock
+        self.tx.clock
     }
 
     /// The sequence number the next force command will carry.
     pub fn next_sequence(&self) -> u32 {
-        self.outbound.next_sequence()
+        self.tx.outbound.next_sequence()
     }
+
     /// Split into a receiver for the network task and a sender a force-mapping thread owns
     /// (call once the stream is up: after the first [`HotPath::recv_cursor`], so the UDP opener
     /// is no longer needed). Sequence numbers continue from this hot path's.
     pub fn split(self) -> (HotReceiver, HotSender) {
-        let (recv, send) = match self.socket {
-            HotSocket::Udp(r, s) => (ReceiverSocket::Udp(r), SenderSocket::Udp(s)),
-            HotSocket::Quic(c, e) => (ReceiverSocket::Quic(c.clone(), e), SenderSocket::Quic(c)),
-        };
-        (
-            HotReceiver {
-                socket: recv,
-                inbound: self.inbound,
-            },
-            HotSender {
-                socket: send,
-                outbound: self.outbound,
-                clock: self.clock,
-                buf: self.buf,
-            },
-        )
+        (self.rx, self.tx)
     }
 }
 
 enum ReceiverSocket {
     Udp(tokio::net::UdpSocket),
+    // The endpoint is held so its socket lives as long as the connection.
     Quic(quinn::Connection, #[allow(dead_code)] quinn::Endpoint),
 }
 
 enum SenderSocket {
+    /// A clone of the receiving socket used with a plain non-blocking `send`, which (unlike
+    /// tokio's `try_send`) does not depend on the reactor having seen the socket writable yet:
+    /// under load that made the first packet vanish.
     Udp(std::net::UdpSocket),
     Quic(quinn::Connection),
 }
 
-/// The receiving half of a split [`HotPath`] (async, for the network task).
+/// The receiving half of a [`HotPath`] (async, for the network task).
 pub struct HotReceiver {
     socket: ReceiverSocket,
     inbound: Inbound,
@@ -337,6 +286,7 @@ impl std::fmt::Debug for HotReceiver {
 
 impl HotReceiver {
     /// The next authentic cursor packet; [`ClientError::Closed`] when a QUIC connection ends.
+    /// Cancel-safe: a packet is either returned or was never taken from the socket.
     pub async fn recv_cursor(&mut self) -> Result<(Packet, CursorSample), ClientError> {
         let mut buf = [0u8; MAX_PACKET_BYTES + 1];
         loop {
@@ -363,9 +313,9 @@ impl HotReceiver {
     }
 }
 
-/// The sending half of a split [`HotPath`]: synchronous and non-blocking, so a force-mapping
-/// thread owns it and sends without a runtime. Encoding reuses one buffer (no allocation on
-/// UDP; quinn copies each datagram into a `Bytes`).
+/// The sending half of a [`HotPath`]: synchronous and non-blocking, so a force-mapping thread
+/// owns it and sends without a runtime. Encoding reuses one buffer (no allocation on UDP;
+/// quinn copies each datagram into a `Bytes`).
 pub struct HotSender {
     socket: SenderSocket,
     outbound: Outbound,
@@ -383,13 +333,22 @@ impl std::fmt::Debug for HotSender {
 
 impl HotSender {
     /// Send a force command now; a full socket buffer drops it (a newer one follows, and the
-    /// server's watchdog covers a gap). [`ClientError::Closed`] when the connection is gone.
+    /// server's watchdog covers a gap). [`ClientError::Closed`] when a QUIC connection is gone
+    /// (UDP has no connection: a vanished server shows as silence on the receiving side).
     pub fn send_force(&mut self, cmd: &ForceCommand) -> Result<(), ClientError> {
         let len = self
             .outbound
             .encode(self.clock.now_ns(), Body::Force(*cmd), &mut self.buf);
-        let bytes = &self.buf[..len];
-        let sent = match &self.socket {
+        match self.send_raw(&self.buf[..len]) {
+            Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
+            other => other,
+        }
+    }
+
+    /// Send arbitrary bytes (tests: forged and malformed packets); a full socket buffer is an
+    /// error (`WouldBlock`), not a drop.
+    pub fn send_raw(&self, bytes: &[u8]) -> Result<(), ClientError> {
+        match &self.socket {
             SenderSocket::Udp(s) => s.send(bytes).map(|_| ()).map_err(ClientError::Io),
             SenderSocket::Quic(c) => c
                 .send_datagram(bytes::Bytes::copy_from_slice(bytes))
@@ -397,10 +356,6 @@ impl HotSender {
                     quinn::SendDatagramError::ConnectionLost(_) => ClientError::Closed,
                     e => ClientError::Quic(e.to_string()),
                 }),
-        };
-        match sent {
-            Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
-            other => other,
         }
     }
 
@@ -495,7 +450,7 @@ impl Client {
                 )));
             }
         };
-        let (socket, key) = match conn {
+        let (rx_socket, tx_socket, key) = match conn {
             None => {
                 let bind: SocketAddr = if cfg.server.is_ipv4() {
                     ([0, 0, 0, 0], 0).into()
@@ -507,19 +462,29 @@ impl Client {
                 send.set_nonblocking(true)?;
                 let recv = tokio::net::UdpSocket::from_std(send.try_clone()?)?;
                 (
-                    HotSocket::Udp(recv, send),
+                    ReceiverSocket::Udp(recv),
+                    SenderSocket::Udp(send),
                     Some(SessionKey::from_bytes(welcome.session_key)),
                 )
             }
-            Some((c, e)) => (HotSocket::Quic(c, e), None),
+            Some((c, e)) => (
+                ReceiverSocket::Quic(c.clone(), e),
+                SenderSocket::Quic(c),
+                None,
+            ),
         };
         let mut hot = HotPath {
-            socket,
-            outbound: Outbound::new(welcome.session_id, key.clone()),
-            inbound: Inbound::new(welcome.session_id, key.clone()),
+            rx: HotReceiver {
+                socket: rx_socket,
+                inbound: Inbound::new(welcome.session_id, key.clone()),
+            },
+            tx: HotSender {
+                socket: tx_socket,
+                outbound: Outbound::new(welcome.session_id, key.clone()),
+                clock: MonoClock::new(),
+                buf: [0; MAX_PACKET_BYTES],
+            },
             key,
-            clock: MonoClock::new(),
-            buf: [0; MAX_PACKET_BYTES],
             streaming: false,
         };
         if cfg.transport == TransportKind::Udp {

@@ -249,20 +249,13 @@ impl Renderer {
         {
             return Ok(());
         }
-        let color = self.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("offscreen colour"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: self.color_format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let color = self.texture_2d(
+            "offscreen colour",
+            width,
+            height,
+            self.color_format,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
         let padded_row = (4 * width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
@@ -285,8 +278,27 @@ impl Renderer {
     /// A depth buffer view of [`Renderer::DEPTH_FORMAT`] for `draw` into a `width × height`
     /// target (allocates).
     pub fn create_depth_view(&self, width: u32, height: u32) -> wgpu::TextureView {
-        let depth = self.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("depth"),
+        let depth = self.texture_2d(
+            "depth",
+            width,
+            height,
+            Self::DEPTH_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        depth.create_view(&Default::default())
+    }
+
+    /// A single-sampled 2-D texture without mips.
+    fn texture_2d(
+        &self,
+        label: &str,
+        width: u32,
+        height: u32,
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
             size: wgpu::Extent3d {
                 width,
                 height,
@@ -295,11 +307,10 @@ impl Renderer {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: Self::DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            usage,
             view_formats: &[],
-        });
-        depth.create_view(&Default::default())
+        })
     }
 
     /// Draws one frame into the offscreen target and reads it back (blocks until the GPU is

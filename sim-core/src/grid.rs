@@ -117,6 +117,20 @@ impl GridSpec {
         [i, r % self.dims[1], r / self.dims[1]]
     }
 
+    /// The node coordinates `(first, last)`, inclusive, of the nodes in the box `[lo, hi]`
+    /// rounded outward to whole cells and clamped to the grid (a box outside the grid yields
+    /// the nearest face's nodes). Tools visit these to touch only what is within their reach.
+    pub fn node_range(&self, lo: DVec3, hi: DVec3) -> ([usize; 3], [usize; 3]) {
+        let idx = |x: DVec3, up: bool| -> [usize; 3] {
+            let g = (x - self.origin) / self.spacing;
+            std::array::from_fn(|a| {
+                let v = if up { g[a].ceil() } else { g[a].floor() };
+                v.clamp(0.0, (self.dims[a] - 1) as f64) as usize
+            })
+        };
+        (idx(lo, false), idx(hi, true))
+    }
+
     /// World position of the last node `(nx-1, ny-1, nz-1)`.
     pub fn max_corner(&self) -> DVec3 {
         self.node_position(

@@ -315,25 +315,6 @@ impl Scene {
         self.step_observed(dt, ropes, &mut ())
     }
 
-    /// One step with any mix of tools (ropes, the sculpting probe, …), applied in order.
-    pub fn step_with(
-        &mut self,
-        dt: f64,
-        tools: &[&dyn GridTool],
-    ) -> Result<SculptStepReport, SceneError> {
-        self.step_inner(
-            dt,
-            &mut |model| {
-                let mut n = 0;
-                for t in tools {
-                    n += t.apply(model)?;
-                }
-                Ok(n)
-            },
-            &mut (),
-        )
-    }
-
     /// [`Scene::step`], telling `observer` as each stage ends.
     pub fn step_observed(
         &mut self,
@@ -343,13 +324,7 @@ impl Scene {
     ) -> Result<SculptStepReport, SceneError> {
         self.step_inner(
             dt,
-            &mut |model| {
-                let mut n = 0;
-                for rope in ropes {
-                    n += rope.apply(model)?;
-                }
-                Ok(n)
-            },
+            &mut |model| apply_tools(model, ropes.iter().map(|r| r as &dyn GridTool)),
             observer,
         )
     }
@@ -368,9 +343,10 @@ impl Scene {
         Ok(report)
     }
 
-    /// Only the field's part of a step (clear forces, apply `tools`, integrate `dt`); the points
-    /// do not move until [`Scene::follow_points`]. A live workstation publishes the field between
-    /// the two, so the haptic thread's snapshot does not wait for the points.
+    /// Only the field's part of a step with any mix of tools (ropes, the sculpting probe, …):
+    /// clear forces, apply `tools` in order, integrate `dt`. The points do not move until
+    /// [`Scene::follow_points`]. A live workstation publishes the field between the two, so the
+    /// haptic thread's snapshot does not wait for the points.
     pub fn step_field(
         &mut self,
         dt: f64,
@@ -378,13 +354,7 @@ impl Scene {
     ) -> Result<SculptStepReport, SceneError> {
         self.field_step(
             dt,
-            &mut |model| {
-                let mut n = 0;
-                for t in tools {
-                    n += t.apply(model)?;
-                }
-                Ok(n)
-            },
+            &mut |model| apply_tools(model, tools.iter().copied()),
             &mut (),
         )
     }
@@ -479,4 +449,16 @@ impl Scene {
     pub fn publish(&mut self) -> Option<Arc<ScalarGrid>> {
         self.region.as_mut().map(|r| r.model.publish())
     }
+}
+
+/// Apply `tools` in order; the number of nodes they touched.
+fn apply_tools<'a>(
+    model: &mut DynamicGrid,
+    tools: impl Iterator<Item = &'a dyn GridTool>,
+) -> Result<usize, ToolError> {
+    let mut n = 0;
+    for t in tools {
+        n += t.apply(model)?;
+    }
+    Ok(n)
 }

@@ -17,7 +17,7 @@ pub use rope::{Profile, Rope};
 use crate::dynamics::DynamicGrid;
 
 /// A tool that acts on the dynamic field through node forces, once per step (after the forces
-/// are cleared). [`crate::scene::Scene::step_with`] applies any mix of them.
+/// are cleared). [`crate::scene::Scene::step_field`] applies any mix of them.
 pub trait GridTool {
     /// Add this tool's forces; returns how many nodes it touched.
     fn apply(&self, model: &mut DynamicGrid) -> Result<usize, ToolError>;

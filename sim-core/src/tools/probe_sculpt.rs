@@ -59,22 +59,13 @@ impl GridTool for ProbeSculpt {
         let spec = *model.spec();
         let (lo, hi) = self.probe.aabb();
         let margin = DVec3::splat(spec.spacing);
-        let to_idx = |x: DVec3, up: bool| -> [usize; 3] {
-            let g = (x - spec.origin) / spec.spacing;
-            let mut out = [0; 3];
-            for a in 0..3 {
-                let v = if up { g[a].ceil() } else { g[a].floor() };
-                out[a] = v.clamp(0.0, (spec.dims[a] - 1) as f64) as usize;
-            }
-            out
-        };
         if !(lo.is_finite() && hi.is_finite()) {
             return Err(ToolError::Param {
                 name: "probe",
                 reason: "must be posed at a finite position",
             });
         }
-        let (a, b) = (to_idx(lo - margin, false), to_idx(hi + margin, true));
+        let (a, b) = spec.node_range(lo - margin, hi + margin);
         let mut touched = 0;
         for k in a[2]..=b[2] {
             for j in a[1]..=b[1] {

@@ -130,16 +130,7 @@ impl Rope {
             (lo, hi) = (lo.min(p), hi.max(p));
         }
         let r = DVec3::splat(self.radius);
-        let to_idx = |x: DVec3, up: bool| -> [usize; 3] {
-            let g = (x - spec.origin) / spec.spacing;
-            let mut out = [0; 3];
-            for a in 0..3 {
-                let v = if up { g[a].ceil() } else { g[a].floor() };
-                out[a] = v.clamp(0.0, (spec.dims[a] - 1) as f64) as usize;
-            }
-            out
-        };
-        let (a, b) = (to_idx(lo - r, false), to_idx(hi + r, true));
+        let (a, b) = spec.node_range(lo - r, hi + r);
         let mut touched = 0;
         for k in a[2]..=b[2] {
             for j in a[1]..=b[1] {
