@@ -202,12 +202,12 @@ pub fn drive_phases(
                 seconds: t0.elapsed().as_secs_f64(),
             }
         } else if let Some(op) = &phase.op {
-            let summary = ws
+            let (kind, summary) = ws
                 .run_op(op)
                 .with_context(|| format!("phase `{}`", phase.name))?;
             PhaseReport {
                 name: phase.name.clone(),
-                kind: format!("op:{}", op_kind(op)),
+                kind: format!("op:{kind}"),
                 summary,
                 seconds: t0.elapsed().as_secs_f64(),
             }
@@ -219,14 +219,6 @@ pub fn drive_phases(
         t0 = Instant::now();
     }
     Ok(reports)
-}
-
-fn op_kind(op: &crate::sculpt::script::Op) -> String {
-    format!("{op:?}")
-        .split([' ', '{', '('])
-        .next()
-        .unwrap_or("op")
-        .to_lowercase()
 }
 
 /// Run the demo; see the module doc.

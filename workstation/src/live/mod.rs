@@ -148,13 +148,6 @@ impl Workstation {
         })
     }
 
-    /// Tools for the next button presses, in order.
-    pub fn queue_tools(&self, tools: Vec<ToolKind>) -> anyhow::Result<()> {
-        self.commands
-            .send(SimCommand::QueueTools(tools))
-            .context("the simulation thread has stopped")
-    }
-
     /// Select the tool for later presses.
     pub fn select(&self, tool: ToolKind) -> anyhow::Result<()> {
         self.commands
@@ -163,7 +156,8 @@ impl Workstation {
     }
 
     /// Run an operation on the simulation thread and wait for it.
-    pub fn run_op(&self, op: &Op) -> anyhow::Result<String> {
+    /// Returns the operation's kind and a one-line summary.
+    pub fn run_op(&self, op: &Op) -> anyhow::Result<(&'static str, String)> {
         let (tx, rx) = mpsc::channel();
         self.commands
             .send(SimCommand::Op(Box::new(op.clone()), tx))

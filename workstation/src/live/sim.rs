@@ -89,6 +89,8 @@ pub struct SimCore {
     scene: Scene,
     names: Vec<String>,
     hidden: Vec<bool>,
+    /// Typical point spacing of each object (m), for the probe samples' areas.
+    spacing: Vec<f64>,
     region_object: usize,
     bounds: (DVec3, DVec3),
     params: sim_core::scene::RegionParams,
@@ -140,6 +142,7 @@ impl SimCore {
             .context("opening the sculpting region")?;
         Ok(Self {
             hidden: vec![false; names.len()],
+            spacing: spacings(&scene),
             scene,
             names,
             region_object,
@@ -201,11 +204,6 @@ impl SimCore {
     /// Select the tool the button engages next.
     pub fn select(&mut self, tool: ToolKind) {
         self.selected = tool;
-    }
-
-    /// Tools for the next presses, in order (a scripted session); then the selected one.
-    pub fn queue_tools(&mut self, tools: impl IntoIterator<Item = ToolKind>) {
-        self.queue.extend(tools);
     }
 
     /// What the force thread should render now.
@@ -469,11 +467,12 @@ impl SimCore {
         self.scene.publish()
     }
 
-    /// Surface samples of the visible objects for the probe.
+    /// Surface samples of the visible objects for the probe (each sample's area from its
+    /// object's spacing, measured when the object was made: sculpting barely changes it).
     pub fn samples(&self) -> Option<SampleGrid> {
         let mut s = Vec::new();
-        for o in self.visible() {
-            let h = sim_core::resample::spacing(&o.positions).max(1e-6);
+        let objects = self.scene.objects().iter().zip(&self.spacing);
+        for ((o, &h), _) in objects.zip(&self.hidden).filter(|(_, hidden)| !**hidden) {
             s.extend(o.positions.iter().zip(&o.normals).filter_map(|(&p, &n)| {
                 Some(SurfaceSample {
                     position: p,
@@ -505,7 +504,7 @@ impl SimCore {
 
     /// Run a `sculpt` operation (CSG, emboss, paint, resampling…) between strokes. A CSG result
     /// replaces its inputs on screen; if it consumed the sculpted object the region moves to it.
-    pub fn run_op(&mut self, op: &Op) -> anyhow::Result<String> {
+    pub fn run_op(&mut self, op: &Op) -> anyhow::Result<(&'static str, String)> {
         if self.stroke.is_some() {
             self.release()?;
         }
@@ -521,6 +520,7 @@ impl SimCore {
             &self.fit,
         );
         self.hidden.resize(self.names.len(), false);
+        self.spacing = spacings(&self.scene);
         if let Op::Csg { a, b, .. } = op
             && self.names.len() > before
         {
@@ -541,7 +541,7 @@ impl SimCore {
             self.bounds.1,
             self.params,
         )?;
-        Ok(result?.1)
+        result
     }
 
     /// Whether a stroke is engaged.
@@ -559,15 +559,25 @@ impl SimCore {
     }
 }
 
+/// The median nearest-neighbour distance of each object's points (m, at least 1 µm).
+fn spacings(scene: &Scene) -> Vec<f64> {
+    scene
+        .objects()
+        .iter()
+        .map(|o| sim_core::resample::spacing(&o.positions).max(1e-6))
+        .collect()
+}
+
 /// Requests to the simulation thread from the session driver.
 #[derive(Debug)]
 pub enum SimCommand {
-    /// Tools for the next presses, in order.
-    QueueTools(Vec<ToolKind>),
     /// Select the tool for later presses.
     Select(ToolKind),
     /// Run an operation; the answer comes back on the channel.
-    Op(Box<Op>, mpsc::Sender<anyhow::Result<String>>),
+    Op(
+        Box<Op>,
+        mpsc::Sender<anyhow::Result<(&'static str, String)>>,
+    ),
     /// Hand the core over (at the end of a session, for saving).
     Finish(mpsc::Sender<SimCore>),
 }
@@ -621,7 +631,6 @@ pub fn run(
     while !shared.stopping() {
         while let Ok(cmd) = commands.try_recv() {
             match cmd {
-                SimCommand::QueueTools(t) => core.queue_tools(t),
                 SimCommand::Select(t) => core.select(t),
                 SimCommand::Op(op, reply) => {
                     let r = core.run_op(&op);
@@ -654,6 +663,8 @@ pub fn run(
         }
         retired.field = shared.field.swap(core.publish_field());
         let tool = core.force_tool();
+        // The probe feels samples that move only while it sculpts (and at releases, below).
+        let probing = core.engaged() && matches!(tool, ForceTool::Probe { .. });
         if **shared.tool.load() != tool {
             retired.tool = Some(shared.tool.swap(Arc::new(tool)));
         }
@@ -667,8 +678,6 @@ pub fn run(
             let _ = reports.send(SimReport::Stroke(s.clone()));
         }
         let now = Instant::now();
-        // The probe feels samples that move only while it sculpts (and at releases, above).
-        let probing = core.engaged() && matches!(core.force_tool(), ForceTool::Probe { .. });
         if core.strokes().len() > strokes
             || (probing && now.duration_since(last_samples) >= samples_every)
         {
