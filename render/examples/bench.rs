@@ -111,6 +111,7 @@ fn scene() -> (Overlay, Camera) {
         cursor: Some(center.into()),
         region: Some(((contact - half).into(), (contact + half).into())),
         force: Some((center.into(), (normal * 0.035).into())),
+        ..Default::default()
     };
     let camera = Camera::framing([-RADIUS; 3], [RADIUS; 3], [0.25, -0.2, -1.0]);
     (overlay, camera)

@@ -126,7 +126,8 @@ pub(crate) fn unit_cone(slices: u16) -> Mesh {
 pub(crate) const SLOT_CURSOR: u32 = 0;
 pub(crate) const SLOT_ARROW_HEAD: u32 = 1;
 pub(crate) const SLOT_PROBE: u32 = 2;
-pub(crate) const MESH_SLOTS: usize = 3;
+pub(crate) const SLOT_CONTACT: u32 = 3;
+pub(crate) const MESH_SLOTS: usize = 4;
 /// Most line segments a frame draws: 12 box edges and the arrow's shaft.
 pub(crate) const MAX_LINES: usize = 13;
 
@@ -182,6 +183,9 @@ impl OverlayInstances {
         if let Some(c) = &overlay.cursor {
             finite(c, "cursor")?;
         }
+        if let Some(c) = &overlay.contact {
+            finite(c, "contact")?;
+        }
         if let Some((a, b)) = &overlay.region {
             finite(&[*a, *b].concat(), "region")?;
         }
@@ -195,14 +199,24 @@ impl OverlayInstances {
         let forward = (Vec3::from(camera.target) - eye).normalize();
         let px_per_unit_depth = height as f32 / (2.0 * (0.5 * camera.fov_y_deg.to_radians()).tan());
 
-        if let Some(c) = overlay.cursor {
+        // Spheres of a constant screen size: the cursor and the contact point.
+        let marker = |c: [f32; 3], px: f32, color: [u8; 3]| {
             let c = Vec3::from(c);
             let depth = (c - eye).dot(forward).max(camera.near);
-            let r = style.cursor_radius_px * depth / px_per_unit_depth;
+            let r = px * depth / px_per_unit_depth;
             let model = Mat4::from_translation(c) * Mat4::from_scale(Vec3::splat(r));
+            instance(model, color_linear(color, 1.0))
+        };
+        if let Some(c) = overlay.cursor {
             self.set(
                 SLOT_CURSOR,
-                instance(model, color_linear(style.cursor_color, 1.0)),
+                marker(c, style.cursor_radius_px, style.cursor_color),
+            );
+        }
+        if let Some(c) = overlay.contact {
+            self.set(
+                SLOT_CONTACT,
+                marker(c, style.contact_radius_px, style.contact_color),
             );
         }
         if let Some(p) = overlay.probe {
@@ -336,6 +350,7 @@ mod tests {
             region: Some(([-1.0; 3], [1.0; 3])),
             force: Some(([0.0; 3], [0.0, 0.5, 0.0])),
             cursor: Some([0.2, 0.0, 0.0]),
+            contact: Some([0.1, 0.0, 0.0]),
             ..Default::default()
         };
         let mut inst = OverlayInstances::default();
@@ -349,7 +364,11 @@ mod tests {
                 "box edges are axis-aligned, length 2: {l:?}"
             );
         }
-        assert_eq!(inst.used, [true, true, false]);
+        // Cursor, arrow head and contact point; no probe.
+        assert_eq!(inst.used, [true, true, false, true]);
+        let contact = Mat4::from_cols_array_2d(&inst.meshes[SLOT_CONTACT as usize].model)
+            .transform_point3(Vec3::ZERO);
+        assert!((contact - Vec3::new(0.1, 0.0, 0.0)).length() < 1e-6);
         let tip = Mat4::from_cols_array_2d(&inst.meshes[SLOT_ARROW_HEAD as usize].model)
             .transform_point3(Vec3::Z);
         assert!(

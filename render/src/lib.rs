@@ -9,8 +9,8 @@
 //!    buffer: no instancing, which Mesa's software rasteriser runs one instance at a time),
 //!    fragments outside the unit disk discarded, depth-tested and written (no EWA blending: the
 //!    nearest disk wins); optionally back-facing splats culled ([`Style::cull_back_facing`]);
-//! 2. the opaque overlays ([`Overlay`]): the haptic cursor (a small sphere of constant screen
-//!    size) and the head of the force arrow;
+//! 2. the opaque overlays ([`Overlay`]): the haptic cursor and the contact point (small spheres
+//!    of constant screen size) and the head of the force arrow;
 //! 3. lines of a given width in pixels, depth-tested: the sculpting region's 12 box edges and the
 //!    force arrow's shaft;
 //! 4. the probe ellipsoid, translucent (alpha-blended over everything above, depth-tested, no
@@ -99,7 +99,7 @@ pub enum RenderError {
     /// A splat or overlay value is NaN or infinite, or a radius is negative.
     #[error("{what} {index} is not finite (or has a negative radius)")]
     NonFinite {
-        /// Which input: "splat", "probe", "cursor", "region", "force".
+        /// Which input: "splat", "probe", "cursor", "contact", "region", "force".
         what: &'static str,
         /// Index of the offending splat (0 for overlays).
         index: usize,

@@ -13,7 +13,7 @@ use crate::{
     Camera, Image, Overlay, RenderError, Splat, Style,
     geometry::{
         LineInstance, MAX_LINES, MESH_SLOTS, Mesh, MeshInstance, OverlayInstances, SLOT_ARROW_HEAD,
-        SLOT_CURSOR, SLOT_PROBE, unit_cone, unit_sphere,
+        SLOT_CONTACT, SLOT_CURSOR, SLOT_PROBE, unit_cone, unit_sphere,
     },
     pipelines::{Pipelines, bind_group_layout, make_pipelines},
     scene::srgb_to_linear,
@@ -515,6 +515,7 @@ impl Renderer {
         };
         pass.set_pipeline(&self.pipelines.mesh_opaque);
         mesh(&mut pass, &self.sphere, SLOT_CURSOR);
+        mesh(&mut pass, &self.sphere, SLOT_CONTACT);
         mesh(&mut pass, &self.cone, SLOT_ARROW_HEAD);
         if self.overlay.line_count > 0 {
             pass.set_pipeline(&self.pipelines.line);

@@ -53,6 +53,8 @@ pub struct Overlay {
     pub cursor: Option<[f32; 3]>,
     /// The sculpting region as an axis-aligned box `(min, max)`: 12 lines.
     pub region: Option<([f32; 3], [f32; 3])>,
+    /// The contact point on the surface: a sphere of [`Style::contact_radius_px`] pixels.
+    pub contact: Option<[f32; 3]>,
     /// The contact force as an arrow `(origin, vector)` in metres (the caller scales newtons to
     /// a length); a zero vector draws nothing.
     pub force: Option<([f32; 3], [f32; 3])>,
@@ -105,6 +107,10 @@ pub struct Style {
     pub cursor_color: [u8; 3],
     /// Cursor radius in pixels (the sphere keeps its screen size at any distance).
     pub cursor_radius_px: f32,
+    /// Contact point colour (sRGB).
+    pub contact_color: [u8; 3],
+    /// Contact point radius in pixels.
+    pub contact_radius_px: f32,
     /// Region box colour (sRGB).
     pub region_color: [u8; 3],
     /// Region box line width in pixels.
@@ -129,6 +135,8 @@ impl Default for Style {
             probe_color: [120, 190, 255, 90],
             cursor_color: [255, 220, 40],
             cursor_radius_px: 6.0,
+            contact_color: [40, 230, 120],
+            contact_radius_px: 4.0,
             region_color: [200, 200, 210],
             region_width_px: 2.0,
             force_color: [255, 40, 200],

@@ -12,3 +12,4 @@ pub mod logging;
 pub mod scenes;
 pub mod sculpt;
 pub mod status;
+pub mod view;

@@ -22,8 +22,12 @@ struct Cli {
 enum Command {
     /// The networked demo: an in-process haptics server with a fake device on loopback, a
     /// scripted session (rope, paint, probe, CSG, emboss) through the real network path;
-    /// writes summary.json, final.ply, final_mesh.* and PNG frames to --out.
+    /// writes summary.json, final.ply, final_mesh.* and PNG frames to --out. Opens the window
+    /// when a display is present (--no-window keeps it headless).
     Demo(workstation::live::demo::DemoArgs),
+    /// Open the interactive window on a scene: splat view, control panel, live plots. Without
+    /// --server the mouse is the device (left button = stylus button, wheel = depth).
+    View(workstation::view::ViewArgs),
     /// Run the workstation against a haptics server: network, force-mapping, simulation and
     /// rendering threads on a scene; saves the model on exit (Ctrl-C or --seconds).
     Run(workstation::live::run::RunArgs),
@@ -57,7 +61,8 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Demo(args) => workstation::live::demo::run(&args).map(|_| ()),
+        Command::Demo(args) => workstation::view::demo(&args),
+        Command::View(args) => workstation::view::run(&args),
         Command::Run(args) => workstation::live::run::run(&args),
         Command::HandPath(args) => workstation::live::run::hand_path_command(&args),
         Command::Render(args) => workstation::live::snapshot_png::run(&args),

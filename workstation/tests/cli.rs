@@ -12,7 +12,15 @@ fn help_lists_the_live_commands() {
     let out = workstation().arg("--help").output().unwrap();
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
-    for cmd in ["demo", "run", "hand-path", "render", "sculpt", "fit"] {
+    for cmd in [
+        "demo",
+        "run",
+        "view",
+        "hand-path",
+        "render",
+        "sculpt",
+        "fit",
+    ] {
         assert!(text.contains(cmd), "`{cmd}` missing from --help:\n{text}");
     }
 }
@@ -56,4 +64,34 @@ fn hand_path_writes_the_demo_strokes_for_the_fake_device() {
     assert_eq!(presses.len(), 3, "{text}");
     assert!(presses[0] >= 2.0);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn view_without_a_display_says_what_to_do_instead() {
+    let out = workstation()
+        .arg("view")
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no display") && err.contains("xvfb-run"),
+        "{err}"
+    );
+}
+
+#[test]
+fn view_rejects_a_bad_window_size_naming_the_flag() {
+    let out = workstation()
+        .args(["view", "--size", "10x10"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--size") && err.contains("200..=8192"),
+        "{err}"
+    );
 }

@@ -3,3 +3,4 @@
 
 mod live;
 mod server_process;
+mod window;

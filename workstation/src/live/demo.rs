@@ -9,6 +9,8 @@
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
@@ -52,6 +54,20 @@ pub struct DemoArgs {
     /// Give up after this many seconds.
     #[arg(long, default_value_t = 110.0)]
     pub timeout_s: f64,
+    /// Stay headless even when a display is present (the window opens by default then).
+    #[arg(long)]
+    pub no_window: bool,
+}
+
+/// What a caller that shows the demo (the window) hooks into [`run_with`].
+#[derive(Debug, Default)]
+pub struct DemoHooks {
+    /// Receives the session's link once the workstation has started.
+    pub started: Option<std::sync::mpsc::Sender<crate::view::Link>>,
+    /// Set to stop the demo between phases (the window was closed).
+    pub cancelled: Arc<AtomicBool>,
+    /// Receives every progress line too.
+    pub log: Option<Arc<Mutex<Vec<String>>>>,
 }
 
 /// What one phase did.
@@ -223,6 +239,19 @@ pub fn drive_phases(
 
 /// Run the demo; see the module doc.
 pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
+    run_with(args, DemoHooks::default())
+}
+
+/// Run the demo with hooks for a window.
+pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
+    let say = |line: String| {
+        println!("{line}");
+        if let Some(log) = &hooks.log
+            && let Ok(mut l) = log.lock()
+        {
+            l.push(line);
+        }
+    };
     let started = Instant::now();
     anyhow::ensure!(
         args.timeout_s.is_finite() && (1.0..=86_400.0).contains(&args.timeout_s),
@@ -247,11 +276,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
     let path = hand_path(&scene, LEAD_IN_S);
     write_hand_path(&args.out.join("hand_path.txt"), &path)?;
     let n_phases = scene.phase.len();
-    println!(
+    say(format!(
         "demo: {} phases; fitting the scene's objects (relative files from {})",
         n_phases,
         dir.display()
-    );
+    ));
     // Fit first (seconds), then start the server: the hand's clock starts with the server.
     let server_and_cfg = |_: ()| -> anyhow::Result<(Option<ServerGuard>, NetConfig)> {
         match (args.server, &args.cert) {
@@ -273,12 +302,16 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         let core_scene = scene.clone();
         let (server, cfg) = server_and_cfg(())?;
         let addr = cfg.server;
-        let ws = Workstation::start(&core_scene, dir, cfg, Some(frames_dir))?;
+        let source = super::CursorSource::Server(cfg);
+        let ws = Workstation::start(&core_scene, dir.clone(), source.clone(), Some(frames_dir))?;
+        if let Some(tx) = &hooks.started {
+            let _ = tx.send(crate::view::Link::to(&ws, &core_scene, dir, &source));
+        }
         (ws, server, addr)
     };
     let (ws, server, addr) = ws_and_server;
     ws.wait_connected(Duration::from_secs(10))?;
-    println!(
+    say(format!(
         "demo: connected to {addr} over {:?}{}",
         args.transport,
         if server.is_some() {
@@ -286,7 +319,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         } else {
             ""
         }
-    );
+    ));
     ws.shared
         .force_loop
         .reset
@@ -295,16 +328,16 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         &ws,
         &scene,
         deadline,
-        || false,
+        || hooks.cancelled.load(Ordering::Relaxed),
         |i, r| {
-            println!(
+            say(format!(
                 "[{}/{n_phases}] {} ({}, {:.1} s): {}",
                 i + 1,
                 r.name,
                 r.kind,
                 r.seconds,
                 r.summary
-            );
+            ));
         },
     )?;
     // One last frame of the result.
@@ -333,7 +366,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         args.out.join("summary.json"),
         serde_json::to_string_pretty(&summary)?,
     )?;
-    println!(
+    say(format!(
         "demo: done in {:.1} s. force loop {:.0} Hz (period p50 {:.0} µs, p99 {:.0} µs), simulation {:.0} Hz, cursor→force round trip p50 {:.0} µs p99 {:.0} µs (bare UDP ping-pong p50 {:.0} µs), {} frames; wrote {}",
         summary.seconds,
         summary.force_loop_hz,
@@ -345,7 +378,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
         summary.baseline_udp_rtt_us.p50,
         summary.frames,
         args.out.display()
-    );
+    ));
     Ok(summary)
 }
 

@@ -25,10 +25,10 @@ use protocol::packet::ModelKind;
 use sim_core::grid::ScalarGrid;
 use sim_core::haptic::{ContactModel, FieldContactParams, FieldForce, HapticOutput};
 use sim_core::probe::{
-    ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
+    ContactParams, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
 
-use super::scene_file::SceneFile;
+use super::scene_file::{ContactSpec, ProbeSpec, SceneFile};
 use super::shared::{CursorMsg, ForceTool, InputEvent, LoopStats, PercentilesUs, Shared};
 use super::transform::DeviceTransform;
 
@@ -44,37 +44,50 @@ pub struct ForceMapper {
     field: FieldForce,
     probe_renderer: ProbeRenderer,
     probe: Probe,
+    /// The settings `field` and `probe_renderer` were made with; a [`ForceTool`] carrying
+    /// others replaces them (cheap, no allocation: settings change when a person moves a
+    /// slider, not per tick).
+    contact: ContactSpec,
+    probe_spec: ProbeSpec,
+    search: (f64, f64),
 }
 
 impl ForceMapper {
     /// From a scene's device transform and tool defaults.
     pub fn new(scene: &SceneFile) -> anyhow::Result<Self> {
-        let c = &scene.tools.contact;
-        let field = FieldForce::new(FieldContactParams {
-            stiffness: c.stiffness,
-            damping: c.damping,
-            friction: c.friction,
-            max_search: scene.region.band.max(4.0 * scene.region.spacing),
-            approach_margin: 0.5 * scene.region.spacing,
-            validity_radius: MODEL_VALIDITY_M,
-            lifetime_s: MODEL_LIFETIME_S,
-        })?;
+        let search = (
+            scene.region.band.max(4.0 * scene.region.spacing),
+            0.5 * scene.region.spacing,
+        );
         let p = &scene.tools.probe;
-        let probe_renderer = ProbeRenderer::new(
-            ContactParams {
-                surface_stiffness: p.surface_stiffness,
-                surface_damping: p.surface_damping,
-                method: DirectionMethod::SurfaceNormal,
-                magnitude: MagnitudeMethod::VectorSum,
-            },
-            0,
-        )?;
         Ok(Self {
             transform: scene.device.transform(),
-            field,
-            probe_renderer,
+            field: FieldForce::new(field_params(&scene.tools.contact, search))?,
+            probe_renderer: ProbeRenderer::new(probe_params(p), 0)?,
             probe: Probe::ellipsoid(DVec3::from(p.semi_axes))?,
+            contact: scene.tools.contact,
+            probe_spec: *p,
+            search,
         })
+    }
+
+    /// Take the contact settings a tool carries, if they are new and valid (invalid ones keep
+    /// the old: the simulation validated them before publishing).
+    fn use_contact(&mut self, c: &ContactSpec) {
+        if *c != self.contact {
+            if let Ok(f) = FieldForce::new(field_params(c, self.search)) {
+                self.field = f;
+            }
+            self.contact = *c;
+        }
+    }
+
+    /// Take the probe settings a tool carries, if they are new.
+    fn use_probe(&mut self, p: &ProbeSpec) {
+        if *p != self.probe_spec {
+            let _ = self.probe_renderer.set_params(probe_params(p));
+            self.probe_spec = *p;
+        }
     }
 
     /// The device-to-scene transform.
@@ -99,8 +112,9 @@ impl ForceMapper {
             (HapticOutput::idle(MODEL_LIFETIME_S), None)
         } else {
             match *tool {
-                ForceTool::Touch => match field {
+                ForceTool::Touch(c) => match field {
                     Some(grid) => {
+                        self.use_contact(&c);
                         let r = self.field.query(grid, x, v);
                         (r.output, r.contact.map(|c| (c.surface_point, c.normal)))
                     }
@@ -114,8 +128,10 @@ impl ForceMapper {
                     self.field.reset();
                     (rope_output(x, anchor, stiffness, max_force), None)
                 }
-                ForceTool::Probe { semi_axes } => {
+                ForceTool::Probe(p) => {
                     self.field.reset();
+                    self.use_probe(&p);
+                    let semi_axes = DVec3::from(p.semi_axes);
                     (self.probe_output(x, q, v, semi_axes, samples), None)
                 }
             }
@@ -160,6 +176,27 @@ impl ForceMapper {
             MODEL_VALIDITY_M,
             MODEL_LIFETIME_S,
         )
+    }
+}
+
+fn field_params(c: &ContactSpec, (max_search, approach_margin): (f64, f64)) -> FieldContactParams {
+    FieldContactParams {
+        stiffness: c.stiffness,
+        damping: c.damping,
+        friction: c.friction,
+        max_search,
+        approach_margin,
+        validity_radius: MODEL_VALIDITY_M,
+        lifetime_s: MODEL_LIFETIME_S,
+    }
+}
+
+fn probe_params(p: &ProbeSpec) -> ContactParams {
+    ContactParams {
+        surface_stiffness: p.surface_stiffness,
+        surface_damping: p.surface_damping,
+        method: p.direction.method(),
+        magnitude: MagnitudeMethod::VectorSum,
     }
 }
 
@@ -422,12 +459,38 @@ friction = 0.0
             &cursor([0.0, 0.019, 0.0]),
             Some(&grid),
             None,
-            &ForceTool::Touch,
+            &ForceTool::Touch(scene().tools.contact),
         );
         assert!((out.force.y - 0.5).abs() < 0.02, "{:?}", out.force);
         assert!(ev.contact.is_some() && ev.pressed());
-        let (idle, _) = m.tick(&cursor([0.0, 0.019, 0.0]), None, None, &ForceTool::Touch);
+        let touch = ForceTool::Touch(scene().tools.contact);
+        let (idle, _) = m.tick(&cursor([0.0, 0.019, 0.0]), None, None, &touch);
         assert_eq!(idle.force, DVec3::ZERO, "no snapshot yet: no force");
+    }
+
+    #[test]
+    fn contact_settings_carried_by_the_tool_take_effect_at_once() {
+        let mut m = ForceMapper::new(&scene()).unwrap();
+        let spec = GridSpec::covering(DVec3::splat(-0.03), DVec3::splat(0.03), 0.001);
+        let grid = ScalarGrid::from_fn(spec, |p| p.length() - 0.02);
+        let mut c = scene().tools.contact;
+        c.stiffness *= 2.0;
+        let (out, _) = m.tick(
+            &cursor([0.0, 0.019, 0.0]),
+            Some(&grid),
+            None,
+            &ForceTool::Touch(c),
+        );
+        assert!((out.force.y - 1.0).abs() < 0.04, "{:?}", out.force);
+        // An invalid setting keeps the last good one.
+        c.stiffness = -1.0;
+        let (out, _) = m.tick(
+            &cursor([0.0, 0.019, 0.0]),
+            Some(&grid),
+            None,
+            &ForceTool::Touch(c),
+        );
+        assert!((out.force.y - 1.0).abs() < 0.04, "{:?}", out.force);
     }
 
     #[test]

@@ -39,14 +39,89 @@ pub fn splat_radii(positions: &[glam::DVec3]) -> Vec<f32> {
         .collect()
 }
 
+/// Splats of a snapshot, with the radii kept until the points change (the neighbour search
+/// is the expensive part); shared by the PNG frames and the window.
+#[derive(Debug, Default)]
+pub struct SplatCache {
+    radii: Vec<f32>,
+    radii_for: Option<(usize, u64)>,
+    splats: Vec<Splat>,
+}
+
+impl SplatCache {
+    /// The splats of `snap` (the buffer is reused from frame to frame).
+    pub fn splats(&mut self, snap: &RenderSnapshot) -> &[Splat] {
+        let key = points_key(snap);
+        if self.radii_for != Some(key) {
+            self.radii = splat_radii(&snap.positions);
+            self.radii_for = Some(key);
+        }
+        self.splats.clear();
+        self.splats.extend(
+            snap.positions
+                .iter()
+                .zip(&snap.normals)
+                .zip(&snap.colors)
+                .zip(&self.radii)
+                .map(|(((p, n), c), r)| Splat {
+                    position: p.as_vec3().to_array(),
+                    normal: n.as_vec3().to_array(),
+                    radius: *r,
+                    color: [c[0], c[1], c[2], 255],
+                }),
+        );
+        &self.splats
+    }
+}
+
+/// The box a view of `snap` should frame: its points and the region (a 0.2 m cube at the
+/// origin when it has neither).
+pub fn scene_bounds(snap: &RenderSnapshot) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in &snap.positions {
+        (lo, hi) = (lo.min(*p), hi.max(*p));
+    }
+    if let Some((a, b)) = snap.region {
+        (lo, hi) = (lo.min(a), hi.max(b));
+    }
+    if !lo.is_finite() {
+        (lo, hi) = (DVec3::splat(-0.1), DVec3::splat(0.1));
+    }
+    (lo, hi)
+}
+
+/// The overlays of a frame: the probe (when it is the tool), the haptic cursor, the region box
+/// and the force arrow, from `snap` and the force thread's last tick.
+pub fn overlay(snap: &RenderSnapshot, shared: &Shared) -> Overlay {
+    let cursor = shared.haptic.cursor();
+    let force = shared.haptic.force();
+    let f32x3 = |v: DVec3| v.as_vec3().to_array();
+    Overlay {
+        probe: match (snap.tool, snap.probe_semi_axes) {
+            (Some(ToolKind::ProbePush | ToolKind::ProbePull), Some(a)) if cursor.is_finite() => {
+                Some(Ellipsoid {
+                    center: f32x3(cursor),
+                    rotation: [0.0, 0.0, 0.0, 1.0],
+                    semi_axes: f32x3(a),
+                })
+            }
+            _ => None,
+        },
+        cursor: cursor.is_finite().then(|| f32x3(cursor)),
+        contact: shared.haptic.contact().map(f32x3),
+        region: snap.region.map(|(a, b)| (f32x3(a), f32x3(b))),
+        force: (force.length() > 1e-3 && cursor.is_finite())
+            .then(|| (f32x3(cursor), f32x3(force * ARROW_M_PER_N))),
+    }
+}
+
 /// Turns snapshots into frames; keeps the camera fixed on the first snapshot's framing.
 #[derive(Debug)]
 pub struct FrameMaker {
     renderer: Renderer,
     spec: RenderSpec,
     camera: Option<Camera>,
-    radii: Vec<f32>,
-    radii_for: Option<(usize, u64)>,
+    splats: SplatCache,
     image: Image,
 }
 
@@ -58,8 +133,7 @@ impl FrameMaker {
             renderer,
             spec: *spec,
             camera: None,
-            radii: Vec::new(),
-            radii_for: None,
+            splats: SplatCache::default(),
             image: Image {
                 width: 0,
                 height: 0,
@@ -70,35 +144,8 @@ impl FrameMaker {
 
     /// Render `snap` with the haptic overlays from `shared`.
     pub fn render(&mut self, snap: &RenderSnapshot, shared: &Shared) -> anyhow::Result<&Image> {
-        let key = points_key(snap);
-        if self.radii_for != Some(key) {
-            self.radii = splat_radii(&snap.positions);
-            self.radii_for = Some(key);
-        }
-        let splats: Vec<Splat> = snap
-            .positions
-            .iter()
-            .zip(&snap.normals)
-            .zip(&snap.colors)
-            .zip(&self.radii)
-            .map(|(((p, n), c), r)| Splat {
-                position: p.as_vec3().to_array(),
-                normal: n.as_vec3().to_array(),
-                radius: *r,
-                color: [c[0], c[1], c[2], 255],
-            })
-            .collect();
         let camera = *self.camera.get_or_insert_with(|| {
-            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-            for p in &snap.positions {
-                (lo, hi) = (lo.min(*p), hi.max(*p));
-            }
-            if let Some((a, b)) = snap.region {
-                (lo, hi) = (lo.min(a), hi.max(b));
-            }
-            if !lo.is_finite() {
-                (lo, hi) = (DVec3::splat(-0.1), DVec3::splat(0.1));
-            }
+            let (lo, hi) = scene_bounds(snap);
             let d = DVec3::from(self.spec.view_dir).normalize();
             Camera::framing(
                 lo.as_vec3().to_array(),
@@ -106,36 +153,17 @@ impl FrameMaker {
                 d.as_vec3().to_array(),
             )
         });
-        let cursor = shared.haptic.cursor();
-        let force = shared.haptic.force();
-        let f32x3 = |v: DVec3| v.as_vec3().to_array();
-        let overlay = Overlay {
-            probe: match (snap.tool, snap.probe_semi_axes) {
-                (Some(ToolKind::ProbePush | ToolKind::ProbePull), Some(a))
-                    if cursor.is_finite() =>
-                {
-                    Some(Ellipsoid {
-                        center: f32x3(cursor),
-                        rotation: [0.0, 0.0, 0.0, 1.0],
-                        semi_axes: f32x3(a),
-                    })
-                }
-                _ => None,
-            },
-            cursor: cursor.is_finite().then(|| f32x3(cursor)),
-            region: snap.region.map(|(a, b)| (f32x3(a), f32x3(b))),
-            force: (force.length() > 1e-3 && cursor.is_finite())
-                .then(|| (f32x3(cursor), f32x3(force * ARROW_M_PER_N))),
-        };
+        let overlay = overlay(snap, shared);
+        let splats = self.splats.splats(snap);
         self.renderer
-            .render_into(&splats, &overlay, &camera, &mut self.image)?;
+            .render_into(splats, &overlay, &camera, &mut self.image)?;
         Ok(&self.image)
     }
 }
 
 /// Changes when the points change (count, positions or colours): a sum over them, O(points),
 /// far cheaper than the neighbour search it saves.
-fn points_key(snap: &RenderSnapshot) -> (usize, u64) {
+pub fn points_key(snap: &RenderSnapshot) -> (usize, u64) {
     let mut h = 0u64;
     for (p, c) in snap.positions.iter().zip(&snap.colors) {
         for v in p.to_array() {

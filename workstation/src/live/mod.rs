@@ -20,6 +20,7 @@
 pub mod demo;
 pub mod force;
 pub mod frames;
+pub mod mouse;
 pub mod net;
 pub mod run;
 pub mod scene_file;
@@ -48,6 +49,21 @@ use scene_file::{SceneFile, ToolKind};
 use shared::{CURSOR_RING, EVENT_RING, PercentilesUs, Shared};
 use sim::{SimCommand, SimCore, SimReport};
 
+/// Where the cursor comes from.
+#[derive(Debug, Clone)]
+pub enum CursorSource {
+    /// A haptics server's device, over the network.
+    Server(NetConfig),
+    /// The window's mouse ([`mouse`]): no device, no server.
+    Mouse(Arc<mouse::MouseHand>),
+}
+
+impl From<NetConfig> for CursorSource {
+    fn from(cfg: NetConfig) -> Self {
+        Self::Server(cfg)
+    }
+}
+
 /// A running workstation.
 #[derive(Debug)]
 pub struct Workstation {
@@ -62,13 +78,14 @@ pub struct Workstation {
 
 impl Workstation {
     /// Load and fit the scene (relative files against `dir`), then start the simulation,
-    /// force-mapping, network and (with `frames`) rendering threads.
+    /// force-mapping, network (or mouse) and (with `frames`) rendering threads.
     pub fn start(
         scene: &SceneFile,
         dir: PathBuf,
-        net_cfg: NetConfig,
+        source: impl Into<CursorSource>,
         frames_dir: Option<PathBuf>,
     ) -> anyhow::Result<Self> {
+        let source = source.into();
         // Everything that can fail comes before the first thread starts.
         let core = SimCore::new(scene, dir)?;
         let mapper = force::ForceMapper::new(scene)?;
@@ -115,17 +132,37 @@ impl Workstation {
             "force-mapping",
             Box::new(move || force::run(mapper, ports, s)),
         )?;
-        let ports = net::NetPorts {
-            cursors: cursor_tx,
-            senders: sender_tx,
-            force_thread: force.thread().clone(),
-        };
+        let force_thread = force.thread().clone();
         threads.push(("force-mapping", force));
         let s = Arc::clone(&shared);
-        threads.push((
-            "network",
-            spawn("network", Box::new(move || net::run(net_cfg, ports, s)))?,
-        ));
+        match source {
+            CursorSource::Server(cfg) => {
+                let ports = net::NetPorts {
+                    cursors: cursor_tx,
+                    senders: sender_tx,
+                    force_thread,
+                };
+                threads.push((
+                    "network",
+                    spawn("network", Box::new(move || net::run(cfg, ports, s)))?,
+                ));
+            }
+            CursorSource::Mouse(hand) => {
+                drop(sender_tx); // no session, no sender: forces are shown, not sent
+                let ports = mouse::MousePorts {
+                    cursors: cursor_tx,
+                    force_thread,
+                };
+                let sampler = mouse::MouseSampler::new(scene.device.transform());
+                threads.push((
+                    "mouse",
+                    spawn(
+                        "mouse",
+                        Box::new(move || mouse::run(hand, sampler, ports, s)),
+                    )?,
+                ));
+            }
+        }
         let count = Arc::new(FrameCount::default());
         if let Some((dir, maker)) = frames {
             let (s, c) = (Arc::clone(&shared), Arc::clone(&count));
@@ -150,9 +187,20 @@ impl Workstation {
 
     /// Select the tool for later presses.
     pub fn select(&self, tool: ToolKind) -> anyhow::Result<()> {
+        self.send(SimCommand::Select(tool))
+    }
+
+    /// Send a command to the simulation thread (answers come on the command's channel).
+    pub fn send(&self, cmd: SimCommand) -> anyhow::Result<()> {
         self.commands
-            .send(SimCommand::Select(tool))
+            .send(cmd)
+            .ok()
             .context("the simulation thread has stopped")
+    }
+
+    /// A handle that sends commands to the simulation thread from elsewhere (the window).
+    pub fn commander(&self) -> mpsc::Sender<SimCommand> {
+        self.commands.clone()
     }
 
     /// Run an operation on the simulation thread and wait for it.
@@ -223,7 +271,7 @@ impl Workstation {
     /// Stop every thread and hand back the simulation core (for saving).
     pub fn finish(mut self) -> anyhow::Result<SimCore> {
         let (tx, rx) = mpsc::channel();
-        let sent = self.commands.send(SimCommand::Finish(tx)).is_ok();
+        let sent = self.send(SimCommand::Finish(tx)).is_ok();
         let core = if sent {
             rx.recv_timeout(Duration::from_secs(60)).ok()
         } else {

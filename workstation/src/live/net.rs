@@ -187,4 +187,13 @@ fn record_stats(net: &NetStats, s: &Stats) {
     };
     net.force_rtt_us.set(p(&s.force_rtt_ns));
     net.server_period_p99_us.set(us(s.period_ns.p99));
+    let [ticks, uptime] = &net.server_ticks;
+    let (t0, u0) = (
+        ticks.swap(s.ticks, Ordering::Relaxed),
+        uptime.swap(s.uptime_ns, Ordering::Relaxed),
+    );
+    if s.uptime_ns > u0 && s.ticks >= t0 && u0 > 0 {
+        net.servo_hz
+            .set((s.ticks - t0) as f64 / ((s.uptime_ns - u0) as f64 * 1e-9));
+    }
 }

@@ -11,7 +11,7 @@
 use std::collections::BTreeMap;
 
 use glam::{DQuat, DVec3, EulerRot};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use sim_core::dynamics::NodeParams;
 
 use crate::sculpt::script::{Generate, ObjectSpec, Op, RegionSpec, Script, ScriptError};
@@ -27,8 +27,8 @@ pub const MAX_STROKE_SECONDS: f64 = 600.0;
 /// The largest rendered image side, pixels.
 pub const MAX_IMAGE_SIDE: u32 = 8_192;
 
-/// A whole scene file.
-#[derive(Debug, Clone, Deserialize)]
+/// A whole scene file (serialised by [`SceneFile::to_toml`] without its phases).
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
     /// The device-to-scene transform.
@@ -48,7 +48,7 @@ pub struct SceneFile {
     #[serde(default)]
     pub render: RenderSpec,
     /// A scripted session: strokes of the (fake) device and operations, in order.
-    #[serde(default)]
+    #[serde(default, skip_serializing)]
     pub phase: Vec<Phase>,
     /// Cells along the longest side when meshing the zero set for saving.
     #[serde(default = "default_mesh_resolution")]
@@ -60,7 +60,7 @@ fn default_mesh_resolution() -> usize {
 }
 
 /// Where the stylus is in the scene: `x_scene = translation + scale · R · x_device`.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DeviceSpec {
     /// Scene metres per device metre (workspace scaling).
@@ -94,21 +94,25 @@ impl DeviceSpec {
 }
 
 /// One object: the `sculpt` script's object plus whether it is simulated and its material.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneObjectSpec {
     /// Name used by the region, operations and output files.
     pub name: String,
     /// A point file (PLY, OFF, OBJ, XYZ), relative to the scene file.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<String>,
     /// Or an analytic shape to sample.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub generate: Option<Generate>,
     /// Translation applied after loading or generating (m).
     #[serde(default)]
     pub offset: [f64; 3],
     /// Simulated (the region's object; default) or static.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub dynamic: Option<bool>,
     /// A `[material.NAME]` for the simulated field (default: the region's `node`, or defaults).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub material: Option<String>,
 }
 
@@ -125,7 +129,7 @@ impl SceneObjectSpec {
 }
 
 /// Which tool the stylus button engages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ToolKind {
     /// Only feel the surface (field force with friction); the button does nothing.
@@ -157,7 +161,7 @@ impl ToolKind {
 }
 
 /// Tool defaults.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ToolDefaults {
     /// The tool selected at start.
@@ -185,7 +189,7 @@ impl Default for ToolDefaults {
 }
 
 /// Touching the surface (Kim-style field force, DESIGN §5).
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ContactSpec {
     /// Stiffness (N per scene metre).
@@ -207,7 +211,7 @@ impl Default for ContactSpec {
 }
 
 /// The rope tools: a spring from the stylus to the picked surface point pulls the material.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RopeSpec {
     /// Reach of the force profile on the field (m).
@@ -235,7 +239,7 @@ impl Default for RopeSpec {
 }
 
 /// The paint brush (its radius grows with the force pressing on the surface).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PaintSpec {
     /// sRGB colour.
@@ -263,7 +267,7 @@ impl Default for PaintSpec {
 }
 
 /// The shaped probe (seed 004): an ellipsoid posed by the stylus.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ProbeSpec {
     /// Semi-axes (m).
@@ -274,6 +278,31 @@ pub struct ProbeSpec {
     pub surface_damping: f64,
     /// Stiffness of the springs that drive field values toward the probe's shape (N/m).
     pub sculpt_stiffness: f64,
+    /// How the direction of the probe's force is found.
+    pub direction: ProbeDirection,
+}
+
+/// How the direction of the probe's force is found (seed 004 §3.2.3; `sim_core::probe`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProbeDirection {
+    /// Depth-weighted mean of the surface normals under the probe: never reverses through a
+    /// sheet, turns quickly over sharp edges.
+    #[default]
+    SurfaceNormal,
+    /// Depth-weighted mean of the inward probe normals: smooth over edges, reverses when the
+    /// probe's centre crosses the surface.
+    ProbeNormal,
+}
+
+impl ProbeDirection {
+    /// sim-core's method.
+    pub fn method(self) -> sim_core::probe::DirectionMethod {
+        match self {
+            Self::SurfaceNormal => sim_core::probe::DirectionMethod::SurfaceNormal,
+            Self::ProbeNormal => sim_core::probe::DirectionMethod::ProbeNormal,
+        }
+    }
 }
 
 impl Default for ProbeSpec {
@@ -283,12 +312,13 @@ impl Default for ProbeSpec {
             surface_stiffness: 2e6,
             surface_damping: 20.0,
             sculpt_stiffness: 200.0,
+            direction: ProbeDirection::SurfaceNormal,
         }
     }
 }
 
 /// Rendering.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RenderSpec {
     /// Image width (px).
@@ -407,6 +437,12 @@ impl SceneFile {
             op: self.phase.iter().filter_map(|p| p.op.clone()).collect(),
             mesh_resolution: self.mesh_resolution,
         }
+    }
+
+    /// TOML that [`SceneFile::parse`] reads back (without the phases: a saved scene is a
+    /// starting point, not a replay).
+    pub fn to_toml(&self) -> anyhow::Result<String> {
+        Ok(toml::to_string(self)?)
     }
 
     /// The simulated object's entry.

@@ -27,7 +27,7 @@ use protocol::{CursorSample, Packet};
 use sim_core::grid::ScalarGrid;
 use sim_core::probe::SampleGrid;
 
-use super::scene_file::ToolKind;
+use super::scene_file::{ContactSpec, ProbeSpec, ToolKind};
 
 /// Capacity of the network → force cursor ring.
 pub const CURSOR_RING: usize = 64;
@@ -83,12 +83,12 @@ impl InputEvent {
     }
 }
 
-/// What the force thread renders besides touching the field; published by the simulation when
-/// a stroke starts, moves or ends.
+/// What the force thread renders, with the settings it renders it with; published by the
+/// simulation when a stroke starts, moves or ends, or the settings change.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ForceTool {
     /// Touch the surface: field force with friction.
-    Touch,
+    Touch(ContactSpec),
     /// A rope stroke: a spring from the tip to `anchor`, the picked surface point as it moves.
     Rope {
         /// Where the rope holds the surface (m).
@@ -99,10 +99,7 @@ pub enum ForceTool {
         max_force: f64,
     },
     /// The shaped probe against the surface samples.
-    Probe {
-        /// Semi-axes (m).
-        semi_axes: DVec3,
-    },
+    Probe(ProbeSpec),
 }
 
 /// Points for the renderer, published by the simulation at the rendering rate.
@@ -118,6 +115,8 @@ pub struct RenderSnapshot {
     pub region: Option<(DVec3, DVec3)>,
     /// The selected tool.
     pub tool: Option<ToolKind>,
+    /// The sculpted object's name.
+    pub region_object: Option<String>,
     /// Probe semi-axes, when the probe is the tool.
     pub probe_semi_axes: Option<DVec3>,
     /// Simulation steps so far.
@@ -295,6 +294,10 @@ pub struct NetStats {
     pub turnaround_ns: AtomicU64,
     /// Server servo period p99 (µs), from its `Stats`.
     pub server_period_p99_us: AtomicF64,
+    /// Server servo rate between its last two `Stats` (Hz).
+    pub servo_hz: AtomicF64,
+    /// The last `Stats`' servo ticks and uptime (ns), for the rate.
+    pub server_ticks: [AtomicU64; 2],
 }
 
 /// Everything shared between the threads of one workstation.
@@ -332,7 +335,7 @@ impl Default for Shared {
         Self {
             field: ArcSwapOption::empty(),
             samples: ArcSwapOption::empty(),
-            tool: ArcSwap::from_pointee(ForceTool::Touch),
+            tool: ArcSwap::from_pointee(ForceTool::Touch(ContactSpec::default())),
             render: ArcSwapOption::empty(),
             haptic: HapticMonitor::default(),
             force_loop: LoopStats::default(),

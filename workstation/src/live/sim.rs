@@ -26,17 +26,20 @@ use std::sync::atomic::Ordering;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use anyhow::Context as _;
 use glam::DVec3;
 use sim_core::FitParams;
+use sim_core::csg::CsgOp;
+use sim_core::dynamics::NodeParams;
 use sim_core::grid::ScalarGrid;
 use sim_core::probe::{Probe, ProbePose, SampleGrid, SurfaceSample};
 use sim_core::scene::{Scene, SceneObject};
 use sim_core::tools::paint::{Brush, paint};
 use sim_core::tools::{GridTool, ProbeMode, ProbeSculpt, Profile, Rope};
 
-use super::scene_file::{SceneFile, ToolKind};
+use super::scene_file::{ContactSpec, SceneFile, SceneObjectSpec, ToolDefaults, ToolKind};
 use super::shared::{ForceTool, InputEvent, RenderSnapshot, Shared};
-use crate::sculpt::script::{Op, profile_of};
+use crate::sculpt::script::{Generate, Op, profile_of};
 
 /// Points follow the field every this many steps (500 Hz at 1 ms steps: far above any display
 /// rate), after the field is published, so the force thread's snapshot never waits for them.
@@ -119,7 +122,6 @@ impl SimCore {
     /// Load and fit the scene's objects and open the sculpting region; relative files resolve
     /// against `dir`.
     pub fn new(file: &SceneFile, dir: PathBuf) -> anyhow::Result<Self> {
-        use anyhow::Context as _;
         let fit = FitParams::default();
         let mut scene = Scene::new();
         let mut names = Vec::new();
@@ -209,9 +211,7 @@ impl SimCore {
     /// What the force thread should render now.
     pub fn force_tool(&self) -> ForceTool {
         let t = &self.file.tools;
-        let probe = ForceTool::Probe {
-            semi_axes: DVec3::from(t.probe.semi_axes),
-        };
+        let probe = ForceTool::Probe(t.probe);
         match &self.stroke {
             Some(Stroke {
                 tool,
@@ -243,12 +243,12 @@ impl SimCore {
                 active: Active::Probe(_),
                 ..
             }) => probe,
-            Some(_) => ForceTool::Touch,
+            Some(_) => ForceTool::Touch(t.contact),
             // A queued tool is only engaged at its press; until then the selected one is felt
             // (switching the felt model under a resting stylus would kick it).
             None => match self.selected {
                 ToolKind::ProbePush | ToolKind::ProbePull => probe,
-                _ => ForceTool::Touch,
+                _ => ForceTool::Touch(t.contact),
             },
         }
     }
@@ -490,6 +490,7 @@ impl SimCore {
         let mut r = RenderSnapshot {
             region: Some(self.bounds),
             tool: Some(self.stroke.as_ref().map_or(self.selected, |s| s.tool)),
+            region_object: Some(self.names[self.region_object].clone()),
             probe_semi_axes: Some(DVec3::from(self.file.tools.probe.semi_axes)),
             steps: self.steps,
             ..Default::default()
@@ -544,6 +545,141 @@ impl SimCore {
         result
     }
 
+    /// The settings in force.
+    pub fn settings(&self) -> Settings {
+        Settings::of(&self.file)
+    }
+
+    /// The tool selected for the next press.
+    pub fn selected(&self) -> ToolKind {
+        self.selected
+    }
+
+    /// Change tools, material, integrator or step at run time. The values are checked as a
+    /// scene file's are (errors name the field, e.g. `tools.rope.stiffness`); on error nothing
+    /// changes. Tool settings apply from the next press (the force thread's from the next
+    /// published tool); a new material, integrator or step lets go of an engaged stroke and
+    /// reopens the region over the current shape.
+    pub fn configure(&mut self, s: &Settings) -> anyhow::Result<()> {
+        let mut file = self.file.clone();
+        file.tools = ToolDefaults {
+            selected: file.tools.selected,
+            ..s.tools.clone()
+        };
+        file.region.node = Some(s.material);
+        file.region.integrator.clone_from(&s.integrator);
+        file.region.dt = s.dt;
+        file.validate()?;
+        let probe = Probe::ellipsoid(DVec3::from(file.tools.probe.semi_axes))?;
+        let region = file.script().region.context("the scene has no region")?;
+        let params = crate::sculpt::region_params(&region);
+        if Settings::of(&self.file).region_part() != s.region_part() {
+            if self.stroke.is_some() {
+                self.release()?;
+            }
+            self.scene.close_region()?;
+            self.scene
+                .open_region(self.region_object, self.bounds.0, self.bounds.1, params)?;
+            self.params = params;
+        }
+        self.file = file;
+        self.probe = probe;
+        Ok(())
+    }
+
+    /// Add a primitive at `at` and combine it with the sculpted object: `Difference` carves it
+    /// out, `Union` adds it, `Intersection` keeps the overlap. The primitive is sampled at about
+    /// the sculpted object's spacing.
+    pub fn csg_primitive(
+        &mut self,
+        op: CsgOp,
+        shape: &str,
+        size: f64,
+        at: DVec3,
+    ) -> anyhow::Result<(&'static str, String)> {
+        anyhow::ensure!(at.is_finite(), "the cursor is not in the scene yet");
+        anyhow::ensure!(
+            size.is_finite() && size > 0.0,
+            "primitive size must be positive (got {size})"
+        );
+        let h = self.spacing[self.region_object];
+        let area = match shape {
+            "sphere" => 4.0 * std::f64::consts::PI * size * size,
+            "box" => 24.0 * size * size,
+            other => anyhow::bail!("unknown primitive `{other}` (sphere, box)"),
+        };
+        let points = ((area / (h * h)) as usize).clamp(200, MAX_PRIMITIVE_POINTS);
+        let n = self.names.len();
+        let name = format!("{shape}_{n}");
+        let spec = SceneObjectSpec {
+            name: name.clone(),
+            file: None,
+            generate: Some(Generate {
+                shape: shape.into(),
+                size,
+                size2: if shape == "box" { 0.1 * size } else { 0.0 },
+                points,
+                seed: n as u64,
+            }),
+            offset: at.to_array(),
+            dynamic: Some(false),
+            material: None,
+        };
+        let object = crate::sculpt::load_object(&spec.object_spec(), &self.dir, &self.fit)?;
+        self.scene.add(object);
+        self.names.push(name.clone());
+        self.hidden.push(true); // an operand: consumed by the operation below
+        self.spacing = spacings(&self.scene);
+        let a = self.names[self.region_object].clone();
+        self.run_op(&Op::Csg {
+            op,
+            a,
+            b: name,
+            result: format!("csg_{n}"),
+        })
+    }
+
+    /// Write the visible objects as `<name>.ply` and a `scene.toml` that loads them with this
+    /// session's region, materials and settings into `dir`; returns the scene file's path.
+    pub fn save_scene(&self, dir: &std::path::Path) -> anyhow::Result<PathBuf> {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let mut file = self.file.clone();
+        file.object.clear();
+        for ((o, name), _) in self
+            .scene
+            .objects()
+            .iter()
+            .zip(&self.names)
+            .zip(&self.hidden)
+            .filter(|(_, h)| !**h)
+        {
+            let path = dir.join(format!("{name}.ply"));
+            let points = sim_core::PointSet {
+                positions: o.positions.clone(),
+                normals: Some(o.normals.clone()),
+                colors: Some(o.colors.clone()),
+            };
+            let f = std::fs::File::create(&path)
+                .with_context(|| format!("creating {}", path.display()))?;
+            sim_core::io::write_points_ply(std::io::BufWriter::new(f), &points, false)?;
+            let spec = self.file.object.iter().find(|s| s.name == *name);
+            file.object.push(SceneObjectSpec {
+                name: name.clone(),
+                file: Some(format!("{name}.ply")),
+                generate: None,
+                offset: [0.0; 3],
+                dynamic: Some(*name == self.names[self.region_object]),
+                material: spec.and_then(|s| s.material.clone()),
+            });
+        }
+        file.region.object = self.names[self.region_object].clone();
+        file.tools.selected = self.selected;
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, file.to_toml()?)
+            .with_context(|| format!("writing {}", path.display()))?;
+        Ok(path)
+    }
+
     /// Whether a stroke is engaged.
     pub fn engaged(&self) -> bool {
         self.stroke.is_some()
@@ -568,16 +704,70 @@ fn spacings(scene: &Scene) -> Vec<f64> {
         .collect()
 }
 
-/// Requests to the simulation thread from the session driver.
+/// The most points a CSG primitive from the panel is sampled with.
+pub const MAX_PRIMITIVE_POINTS: usize = 40_000;
+
+/// What can change while a session runs (the window's panel): tools, material, integrator and
+/// step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Contact, rope, paint and probe settings (`selected` is not used: see
+    /// [`SimCommand::Select`]).
+    pub tools: ToolDefaults,
+    /// The sculpted material's node parameters.
+    pub material: NodeParams,
+    /// `symplectic_euler`, `forward_euler` or `backward_euler`.
+    pub integrator: String,
+    /// Simulation step (s).
+    pub dt: f64,
+}
+
+impl Settings {
+    /// A scene file's settings.
+    pub fn of(file: &SceneFile) -> Self {
+        let region = file.script().region;
+        Self {
+            tools: file.tools.clone(),
+            material: region.as_ref().and_then(|r| r.node).unwrap_or_default(),
+            integrator: file.region.integrator.clone(),
+            dt: file.region.dt,
+        }
+    }
+
+    fn region_part(&self) -> (NodeParams, &str, f64) {
+        (self.material, &self.integrator, self.dt)
+    }
+}
+
+/// A reply channel of a [`SimCommand`].
+pub type Reply<T> = mpsc::Sender<anyhow::Result<T>>;
+
+/// Requests to the simulation thread from the session driver or the window.
 #[derive(Debug)]
 pub enum SimCommand {
     /// Select the tool for later presses.
     Select(ToolKind),
+    /// Change settings ([`SimCore::configure`]).
+    Configure(Box<Settings>, Reply<()>),
+    /// Combine a primitive with the sculpted object ([`SimCore::csg_primitive`]).
+    CsgPrimitive {
+        /// The operation.
+        op: CsgOp,
+        /// `sphere` or `box`.
+        shape: String,
+        /// Radius or half size (m).
+        size: f64,
+        /// Where (scene m).
+        at: DVec3,
+        /// The answer.
+        reply: Reply<(&'static str, String)>,
+    },
+    /// Save the model and its meshed zero set ([`super::save`]) into a directory.
+    Save(PathBuf, Reply<super::Saved>),
+    /// Save a scene file that reloads this model ([`SimCore::save_scene`]) into a directory.
+    SaveScene(PathBuf, Reply<PathBuf>),
     /// Run an operation; the answer comes back on the channel.
-    Op(
-        Box<Op>,
-        mpsc::Sender<anyhow::Result<(&'static str, String)>>,
-    ),
+    Op(Box<Op>, Reply<(&'static str, String)>),
     /// Hand the core over (at the end of a session, for saving).
     Finish(mpsc::Sender<SimCore>),
 }
@@ -607,10 +797,10 @@ pub fn run(
     reports: mpsc::Sender<SimReport>,
     shared: Arc<Shared>,
 ) {
-    let dt = core.file.region.dt;
+    let mut dt = core.file.region.dt;
     let render_every = Duration::from_secs_f64(core.file.render.interval_s.min(0.1));
     let samples_every = Duration::from_millis(20);
-    let period = Duration::from_secs_f64(dt);
+    let mut period = Duration::from_secs_f64(dt);
     let (mut last_render, mut last_samples) = (Instant::now() - render_every, Instant::now());
     let mut next = Instant::now();
     let mut loop_clock = super::force::LoopTimer::new();
@@ -625,18 +815,51 @@ pub fn run(
         tracing::error!("simulation stopped: {e:#}");
         // Nothing to feel from a dead simulation: no field, no tool spring.
         shared.field.store(None);
-        shared.tool.store(Arc::new(ForceTool::Touch));
+        shared
+            .tool
+            .store(Arc::new(ForceTool::Touch(ContactSpec::default())));
         let _ = reports.send(SimReport::Failed(format!("{e:#}")));
     };
     while !shared.stopping() {
         while let Ok(cmd) = commands.try_recv() {
             match cmd {
-                SimCommand::Select(t) => core.select(t),
+                SimCommand::Select(t) => {
+                    core.select(t);
+                    shared.render.store(Some(Arc::new(core.render_snapshot())));
+                }
+                SimCommand::Configure(s, reply) => {
+                    let r = core.configure(&s);
+                    (dt, period) = (
+                        core.file.region.dt,
+                        Duration::from_secs_f64(core.file.region.dt),
+                    );
+                    retired.samples = shared.samples.swap(core.samples().map(Arc::new));
+                    shared.render.store(Some(Arc::new(core.render_snapshot())));
+                    let _ = reply.send(r);
+                }
                 SimCommand::Op(op, reply) => {
                     let r = core.run_op(&op);
                     retired.samples = shared.samples.swap(core.samples().map(Arc::new));
                     shared.render.store(Some(Arc::new(core.render_snapshot())));
                     let _ = reply.send(r);
+                }
+                SimCommand::CsgPrimitive {
+                    op,
+                    shape,
+                    size,
+                    at,
+                    reply,
+                } => {
+                    let r = core.csg_primitive(op, &shape, size, at);
+                    retired.samples = shared.samples.swap(core.samples().map(Arc::new));
+                    shared.render.store(Some(Arc::new(core.render_snapshot())));
+                    let _ = reply.send(r);
+                }
+                SimCommand::Save(dir, reply) => {
+                    let _ = reply.send(super::save(&core, &dir, core.file.mesh_resolution));
+                }
+                SimCommand::SaveScene(dir, reply) => {
+                    let _ = reply.send(core.save_scene(&dir));
                 }
                 SimCommand::Finish(reply) => {
                     let _ = reply.send(core);
@@ -779,6 +1002,61 @@ rope = {{ radius = 0.01, stiffness = 60.0, max_force = 3.0 }}
                 "surface under the curve at x = {x}: {lift:e} m"
             );
         }
+    }
+
+    #[test]
+    fn settings_change_at_run_time_and_bad_ones_name_the_field() {
+        let mut c = core("touch");
+        let mut s = c.settings();
+        s.tools.rope.stiffness = 120.0;
+        s.tools.probe.semi_axes = [0.004, 0.004, 0.006];
+        c.configure(&s).unwrap();
+        assert_eq!(c.settings().tools.rope.stiffness, 120.0);
+        c.select(ToolKind::ProbePush);
+        assert_eq!(c.force_tool(), ForceTool::Probe(s.tools.probe));
+        // A new material, integrator and step reopen the region; stepping goes on.
+        s.material.stiffness = 20.0;
+        s.integrator = "backward_euler".into();
+        s.dt = 2e-3;
+        c.configure(&s).unwrap();
+        c.step(2e-3).unwrap();
+        assert!(c.publish_field().is_some());
+        assert_eq!(c.settings(), s);
+        let mut bad = s.clone();
+        bad.tools.rope.stiffness = -1.0;
+        let e = c.configure(&bad).unwrap_err();
+        assert!(format!("{e:#}").contains("tools.rope.stiffness"), "{e:#}");
+        assert_eq!(c.settings(), s, "nothing changed");
+    }
+
+    #[test]
+    fn a_primitive_carves_at_the_cursor_and_a_saved_scene_reloads_the_result() {
+        let mut c = core("touch");
+        let top = DVec3::new(0.0, 0.05, 0.0);
+        let (kind, _) = c
+            .csg_primitive(CsgOp::Difference, "sphere", 0.01, top)
+            .unwrap();
+        assert_eq!(kind, "csg");
+        let near = c
+            .visible()
+            .flat_map(|o| o.positions.iter())
+            .filter(|p| p.distance(top) < 0.007)
+            .count();
+        assert_eq!(near, 0, "points left inside the carved sphere");
+        assert!(c.csg_primitive(CsgOp::Union, "cone", 0.01, top).is_err());
+        assert!(
+            c.csg_primitive(CsgOp::Union, "sphere", 0.01, DVec3::NAN)
+                .is_err()
+        );
+        let dir = std::env::temp_dir().join(format!("ws-save-scene-{}", std::process::id()));
+        let path = c.save_scene(&dir).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let scene = SceneFile::parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        let again = SimCore::new(&scene, dir.clone()).unwrap();
+        let count = |c: &SimCore| c.visible().map(|o| o.positions.len()).sum::<usize>();
+        assert_eq!(count(&again), count(&c));
+        assert_eq!(again.settings(), c.settings());
+        let _ = std::fs::remove_dir_all(dir);
     }
 
     #[test]

@@ -47,7 +47,7 @@ pub struct ObjectSpec {
 }
 
 /// A sampled analytic shape.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Generate {
     /// `sphere`, `torus`, `plate` or `box`.
@@ -65,7 +65,7 @@ pub struct Generate {
 }
 
 /// The sculpting region.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RegionSpec {
     /// Object sculpted.

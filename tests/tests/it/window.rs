@@ -1,0 +1,392 @@
+//! The workstation window as a person uses it, on a virtual X server (Xvfb, installed by
+//! `.ci/setup` with xdotool): it opens on the demo scene and shows the object and the panel
+//! (read from the window's own pixels); a click on a tool button selects the tool in the
+//! simulation and the probe appears under the mouse; keys save a screenshot and quit.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use e2e_tests::binary;
+
+/// A virtual X server on its own display, killed when dropped.
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    fn start() -> Self {
+        assert!(
+            which("Xvfb") && which("xdotool"),
+            "the window tests need Xvfb and xdotool: run .ci/setup (Debian packages xvfb, xdotool)"
+        );
+        // Xvfb picks a free display itself and writes its number on stdout (-displayfd).
+        let mut child = Command::new("Xvfb")
+            .args([
+                "-displayfd",
+                "1",
+                "-screen",
+                "0",
+                "1280x900x24",
+                "-ac",
+                "-nolisten",
+                "tcp",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start Xvfb");
+        let mut line = String::new();
+        std::io::BufRead::read_line(
+            &mut std::io::BufReader::new(child.stdout.take().expect("piped")),
+            &mut line,
+        )
+        .expect("Xvfb's display number");
+        let n: u32 = line
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("Xvfb said `{line}`"));
+        Self {
+            child,
+            display: format!(":{n}"),
+        }
+    }
+
+    fn xdotool(&self, args: &[&str]) {
+        assert!(self.try_xdotool(args), "xdotool {args:?} failed");
+    }
+
+    /// Whether xdotool succeeded (`search` fails when no window matches).
+    fn try_xdotool(&self, args: &[&str]) -> bool {
+        Command::new("xdotool")
+            .args(args)
+            .env("DISPLAY", &self.display)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .expect("run xdotool")
+            .success()
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn which(cmd: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(cmd).is_file()))
+}
+
+/// `workstation view` on the display, its output in files under `dir`.
+fn view(x: &Xvfb, dir: &Path, args: &[&str]) -> Child {
+    let log = std::fs::File::create(dir.join("view.log")).unwrap();
+    Command::new(binary("workstation"))
+        .arg("view")
+        .args(args)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .env("DISPLAY", &x.display)
+        .env("RUST_LOG", "info")
+        .stdout(log.try_clone().unwrap())
+        .stderr(log)
+        .spawn()
+        .expect("start workstation view")
+}
+
+fn wait_exit(child: &mut Child, dir: &Path, within: Duration) {
+    let t0 = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let log = std::fs::read_to_string(dir.join("view.log")).unwrap_or_default();
+            assert!(status.success(), "workstation view failed: {status}\n{log}");
+            return;
+        }
+        if t0.elapsed() > within {
+            let _ = child.kill();
+            let log = std::fs::read_to_string(dir.join("view.log")).unwrap_or_default();
+            panic!("workstation view did not exit within {within:?}\n{log}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// An RGB(A) PNG as rows of RGB.
+struct Picture {
+    width: usize,
+    height: usize,
+    rgb: Vec<[u8; 3]>,
+}
+
+impl Picture {
+    fn load(path: &Path) -> Self {
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        let channels = info.color_type.samples();
+        let rgb = buf[..info.buffer_size()]
+            .chunks(channels)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        Self {
+            width: info.width as usize,
+            height: info.height as usize,
+            rgb,
+        }
+    }
+
+    /// Fraction of pixels in `[x0, x1) × [y0, y1)` for which `f` holds.
+    fn fraction(
+        &self,
+        (x0, x1): (usize, usize),
+        (y0, y1): (usize, usize),
+        f: impl Fn([u8; 3]) -> bool,
+    ) -> f64 {
+        let (x1, y1) = (x1.min(self.width), y1.min(self.height));
+        let mut n = 0;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                n += usize::from(f(self.rgb[y * self.width + x]));
+            }
+        }
+        n as f64 / ((x1 - x0) * (y1 - y0)).max(1) as f64
+    }
+}
+
+fn state(path: &Path) -> Option<serde_json::Value> {
+    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
+}
+
+#[test]
+fn the_window_shows_the_object_and_the_panel_in_its_own_pixels() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("window.png");
+    let state_file = dir.path().join("state.json");
+    let mut child = view(
+        &x,
+        dir.path(),
+        &[
+            "--screenshot",
+            shot.to_str().unwrap(),
+            "--frames",
+            "20",
+            "--state",
+            state_file.to_str().unwrap(),
+        ],
+    );
+    wait_exit(&mut child, dir.path(), Duration::from_secs(120));
+    let pic = Picture::load(&shot);
+    assert_eq!((pic.width, pic.height), (1280, 800), "the window's size");
+    let s = state(&state_file).expect("the state file");
+    let view = s.get("view").and_then(|v| v.as_array()).expect("view rect");
+    let vx = view[0].as_f64().unwrap() as usize;
+    assert!(
+        (200..600).contains(&vx),
+        "the panel is on the left, the view from x = {vx}"
+    );
+    // The panel: its grey background with light text on it.
+    let panel_bg = pic.fraction((0, vx - 4), (0, pic.height), |[r, g, b]| {
+        r.abs_diff(g) < 4 && g.abs_diff(b) < 4 && (20..40).contains(&r)
+    });
+    let text = pic.fraction((0, vx - 4), (0, 300), |[r, g, b]| {
+        r > 150 && g > 150 && b > 150
+    });
+    assert!(
+        panel_bg > 0.5,
+        "panel background covers {panel_bg:.2} of the panel"
+    );
+    assert!(text > 0.01, "panel text covers {text:.3} of its top");
+    // The view: the lit grey spheres fill a good part of its middle, the background the rest.
+    let (w, h) = (pic.width - vx, pic.height);
+    let middle = ((vx + w / 4, vx + 3 * w / 4), (h / 4, 3 * h / 4));
+    let object = pic.fraction(middle.0, middle.1, |[r, g, b]| {
+        r > 90 && r.abs_diff(g) < 12 && g.abs_diff(b) < 12
+    });
+    let background = pic.fraction((vx, pic.width), (0, h), |[r, g, b]| {
+        r < 40 && g < 40 && b < 48 && b > r
+    });
+    assert!(
+        object > 0.3,
+        "the object covers {object:.2} of the view's middle"
+    );
+    assert!(
+        background > 0.2,
+        "the background covers {background:.2} of the view"
+    );
+    assert_eq!(s.get("tool").and_then(|t| t.as_str()), Some("touch"));
+    assert!(s.get("points").and_then(|p| p.as_f64()).unwrap() > 1000.0);
+}
+
+#[test]
+fn a_click_on_a_tool_button_selects_it_and_the_probe_follows_the_mouse() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let state_file = dir.path().join("state.json");
+    let mut child = view(
+        &x,
+        dir.path(),
+        &[
+            "--frames",
+            "1000000",
+            "--state",
+            state_file.to_str().unwrap(),
+        ],
+    );
+    // Where the button is, from the window's own account of its layout.
+    let t0 = Instant::now();
+    let (bx, by, view_rect) = loop {
+        assert!(
+            t0.elapsed() < Duration::from_secs(90),
+            "the window did not come up"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "workstation view exited early"
+        );
+        if let Some(s) = state(&state_file)
+            && let Some(b) = s
+                .get("tool_buttons")
+                .and_then(|b| b.get("probe_push"))
+                .and_then(|b| b.as_array())
+            && s.get("frames").and_then(|f| f.as_f64()).unwrap_or(0.0) >= 3.0
+        {
+            let n = |i: usize| b[i].as_f64().unwrap();
+            let v: Vec<f64> = s
+                .get("view")
+                .unwrap()
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            break (n(0) + 0.5 * n(2), n(1) + 0.5 * n(3), v);
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    x.xdotool(&[
+        "mousemove",
+        &format!("{bx:.0}"),
+        &format!("{by:.0}"),
+        "click",
+        "1",
+    ]);
+    let t0 = Instant::now();
+    loop {
+        let tool = state(&state_file)
+            .and_then(|s| s.get("tool").and_then(|t| t.as_str().map(String::from)));
+        if tool.as_deref() == Some("probe_push") {
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "the simulation's tool is {tool:?} after the click"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // Over the object the probe is drawn at the cursor: translucent blue over the grey.
+    let (cx, cy) = (
+        view_rect[0] + 0.55 * view_rect[2],
+        view_rect[1] + 0.5 * view_rect[3],
+    );
+    x.xdotool(&["mousemove", &format!("{cx:.0}"), &format!("{cy:.0}")]);
+    std::thread::sleep(Duration::from_millis(1500));
+    x.xdotool(&[
+        "search",
+        "--name",
+        "workstation view",
+        "windowfocus",
+        "--sync",
+    ]);
+    x.xdotool(&["key", "F12"]);
+    let out = dir.path().join("out");
+    let t0 = Instant::now();
+    let shot = loop {
+        let found = std::fs::read_dir(&out).ok().and_then(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path())).find(|p| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with("screenshot_"))
+            })
+        });
+        if let Some(p) = found {
+            std::thread::sleep(Duration::from_millis(300)); // written whole
+            break p;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "F12 saved no screenshot"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let pic = Picture::load(&shot);
+    let (cx, cy) = (cx as usize, cy as usize);
+    let bluish = pic.fraction((cx - 15, cx + 15), (cy - 15, cy + 15), |[r, _, b]| {
+        b as i32 > r as i32 + 25
+    });
+    assert!(
+        bluish > 0.5,
+        "the probe under the mouse: {bluish:.2} of the pixels are blue"
+    );
+    x.xdotool(&["key", "ctrl+q"]);
+    wait_exit(&mut child, dir.path(), Duration::from_secs(30));
+}
+
+#[test]
+fn the_demo_opens_the_window_when_a_display_is_present_and_it_stays_on_the_result() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let log = std::fs::File::create(dir.path().join("view.log")).unwrap();
+    let mut child = Command::new(binary("workstation"))
+        .arg("demo")
+        .arg("--out")
+        .arg(&out)
+        .env("DISPLAY", &x.display)
+        .stdout(log.try_clone().unwrap())
+        .stderr(log)
+        .spawn()
+        .expect("start workstation demo");
+    let t0 = Instant::now();
+    while !x.try_xdotool(&["search", "--name", "workstation demo"]) {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the demo exited without a window"
+        );
+        assert!(t0.elapsed() < Duration::from_secs(60), "no demo window");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    while !out.join("summary.json").exists() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the demo exited before its summary"
+        );
+        assert!(
+            t0.elapsed() < Duration::from_secs(150),
+            "the demo did not finish"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // Finished, the window stays on the result until the person closes it.
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the window closed by itself"
+    );
+    x.xdotool(&[
+        "search",
+        "--name",
+        "workstation demo",
+        "windowfocus",
+        "--sync",
+    ]);
+    x.xdotool(&["key", "ctrl+q"]);
+    wait_exit(&mut child, dir.path(), Duration::from_secs(30));
+    let log = std::fs::read_to_string(dir.path().join("view.log")).unwrap();
+    assert!(log.contains("demo: done"), "{log}");
+}
