@@ -356,7 +356,8 @@ fn the_demo_opens_the_window_when_a_display_is_present_and_it_stays_on_the_resul
     while !x.try_xdotool(&["search", "--name", "workstation demo"]) {
         assert!(
             child.try_wait().unwrap().is_none(),
-            "the demo exited without a window"
+            "the demo exited without a window:\n{}",
+            std::fs::read_to_string(dir.path().join("view.log")).unwrap_or_default()
         );
         assert!(t0.elapsed() < Duration::from_secs(60), "no demo window");
         std::thread::sleep(Duration::from_millis(200));

@@ -148,6 +148,8 @@ impl Link {
 pub struct Starter {
     /// The server, or `None` for the mouse.
     pub server: Option<NetConfig>,
+    /// The scene shown (`None`: the demo's).
+    pub scene: Option<PathBuf>,
 }
 
 impl Starter {
@@ -216,7 +218,10 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         (Some(_), None) => anyhow::bail!("--server needs --cert (the server's certificate)"),
         (None, _) => None,
     };
-    let starter = Starter { server };
+    let starter = Starter {
+        server,
+        scene: args.scene.clone(),
+    };
     let (ws, link) = starter.start(args.scene.as_deref(), &args.out)?;
     let exit = Exit {
         screenshot: args.screenshot.clone(),
@@ -601,7 +606,7 @@ impl ViewApp {
         let Some((_, starter)) = &self.owned else {
             return self.say("loading is not possible while the demo drives the session");
         };
-        let starter = starter.clone();
+        let mut starter = starter.clone();
         // The old session ends first: a server holds one session at a time.
         if let Some((ws, _)) = self.owned.take() {
             drop(ws);
@@ -611,6 +616,7 @@ impl ViewApp {
             Ok((ws, link)) => {
                 self.panel = Self::panel_for(&link, &out, true);
                 self.link = link;
+                starter.scene = Some(path.to_path_buf());
                 self.owned = Some((ws, starter));
                 self.orbit = None;
                 self.depth = 0.0;
@@ -618,8 +624,8 @@ impl ViewApp {
             }
             Err(e) => {
                 self.say(format!("loading {}: {e:#}", path.display()));
-                // Back to the previous scene.
-                match starter.start(None, &out) {
+                // Back to the scene shown before (as it was when last saved or loaded).
+                match starter.start(starter.scene.as_deref(), &out) {
                     Ok((ws, link)) => {
                         self.link = link;
                         self.owned = Some((ws, starter));
