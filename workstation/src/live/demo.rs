@@ -283,17 +283,9 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
     ));
     // Fit first (seconds), then start the server: the hand's clock starts with the server.
     let server_and_cfg = |_: ()| -> anyhow::Result<(Option<ServerGuard>, NetConfig)> {
-        match (args.server, &args.cert) {
-            (Some(server), Some(cert)) => Ok((
-                None,
-                NetConfig {
-                    server,
-                    transport: args.transport,
-                    cert: haptics_client::tls::read_cert(cert)?,
-                },
-            )),
-            (Some(_), None) => anyhow::bail!("--server needs --cert (the server's certificate)"),
-            (None, _) => embedded_server(args.transport, path.clone()),
+        match NetConfig::from_flags(args.server, args.cert.as_deref(), args.transport)? {
+            Some(cfg) => Ok((None, cfg)),
+            None => embedded_server(args.transport, path.clone()),
         }
     };
     let frames_dir = args.out.join("frames");

@@ -39,6 +39,26 @@ pub struct NetConfig {
     pub cert: CertificateDer<'static>,
 }
 
+impl NetConfig {
+    /// From the `--server`, `--cert` and `--transport` flags: `None` without `--server`;
+    /// `--server` without `--cert` is an error naming both.
+    pub fn from_flags(
+        server: Option<SocketAddr>,
+        cert: Option<&std::path::Path>,
+        transport: TransportKind,
+    ) -> anyhow::Result<Option<Self>> {
+        match (server, cert) {
+            (Some(server), Some(cert)) => Ok(Some(Self {
+                server,
+                transport,
+                cert: haptics_client::tls::read_cert(cert)?,
+            })),
+            (Some(_), None) => anyhow::bail!("--server needs --cert (the server's certificate)"),
+            (None, _) => Ok(None),
+        }
+    }
+}
+
 /// The ends of the network side's hand-offs.
 #[derive(Debug)]
 pub struct NetPorts {

@@ -209,15 +209,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         "no display: `workstation view` opens a window (set DISPLAY, or run it under `xvfb-run`); \
          for pictures without a window use `workstation render` or `workstation run --frames`"
     );
-    let server = match (args.server, &args.cert) {
-        (Some(server), Some(cert)) => Some(NetConfig {
-            server,
-            transport: args.transport,
-            cert: haptics_client::tls::read_cert(cert)?,
-        }),
-        (Some(_), None) => anyhow::bail!("--server needs --cert (the server's certificate)"),
-        (None, _) => None,
-    };
+    let server = NetConfig::from_flags(args.server, args.cert.as_deref(), args.transport)?;
     let starter = Starter {
         server,
         scene: args.scene.clone(),
