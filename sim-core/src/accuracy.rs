@@ -1,5 +1,10 @@
-//! Zero-set error against ground truth: start near the reference surface, project onto the
-//! fitted zero set with Newton, measure each projected point's distance to the reference.
+//! Error against ground truth, two ways:
+//! - [`mesh_error`], the one to judge a surface by: area-uniform samples over the *whole* output
+//!   mesh → distance to the reference, and samples on the reference → distance to the output
+//!   (coverage), so a spurious sheet far from the data and a hole both count.
+//! - [`zero_set_error`], the projected figure: start near the reference surface, project onto
+//!   the fitted zero set with Newton, measure each projected point's distance to the reference.
+//!   It sees how well the field fits where the data is, but never a zero-set piece away from it.
 //!
 //! Contract: deterministic for a seed; distances are exact for analytic shapes and exact
 //! point-to-triangle distances for meshes.
@@ -180,4 +185,101 @@ pub fn zero_set_error(
         max: results.iter().map(|(d, _)| *d).fold(0.0, f64::max),
         reference_size: reference.size(),
     }
+}
+
+/// Distance statistics of one direction of [`mesh_error`], in metres.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Distances {
+    /// Root mean square.
+    pub rms: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl Distances {
+    fn of(mut d: Vec<f64>) -> Self {
+        if d.is_empty() {
+            return Self {
+                rms: 0.0,
+                p99: 0.0,
+                max: 0.0,
+            };
+        }
+        d.par_sort_unstable_by(f64::total_cmp);
+        let n = d.len();
+        let rms = (d.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt();
+        let p99 = d[((n as f64 * 0.99).ceil() as usize).clamp(1, n) - 1];
+        Self {
+            rms,
+            p99,
+            max: d[n - 1],
+        }
+    }
+
+    /// Each figure divided by `size`.
+    pub fn relative(&self, size: f64) -> Self {
+        Self {
+            rms: self.rms / size,
+            p99: self.p99 / size,
+            max: self.max / size,
+        }
+    }
+}
+
+/// Both ways between an output mesh and a reference surface: every spurious piece of the
+/// output raises `to_reference`, every hole raises `coverage`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct TwoSidedError {
+    /// Samples drawn on each side.
+    pub samples: usize,
+    /// Area-uniform samples on the output → distance to the reference surface.
+    pub to_reference: Distances,
+    /// Samples on the reference → distance to the output mesh (exact point–triangle).
+    pub coverage: Distances,
+    /// The reference length for relative figures (see [`Reference::size`]).
+    pub reference_size: f64,
+}
+
+impl TwoSidedError {
+    /// Both directions divided by [`TwoSidedError::reference_size`].
+    pub fn relative(&self) -> (Distances, Distances) {
+        (
+            self.to_reference.relative(self.reference_size),
+            self.coverage.relative(self.reference_size),
+        )
+    }
+}
+
+/// The two-sided distance between `mesh` and `reference`: `samples` area-uniform points on the
+/// whole mesh measured against the reference, and `samples` points on the reference measured
+/// against the mesh. `None` when the mesh has no triangle of positive area (nothing covers the
+/// reference). Deterministic for a seed; runs on all cores.
+pub fn mesh_error(
+    mesh: &TriMesh,
+    reference: &dyn Reference,
+    samples: usize,
+    seed: u64,
+) -> Option<TwoSidedError> {
+    if mesh.area().is_nan() || mesh.area() <= 0.0 {
+        return None;
+    }
+    let output = MeshReference::new(mesh.clone())?;
+    let on_output = output.sample(samples, seed ^ 0x0a7e_5a3f);
+    let to_reference: Vec<f64> = on_output
+        .par_iter()
+        .map(|(p, _)| reference.distance(*p))
+        .collect();
+    let on_reference = reference.sample(samples, seed);
+    let coverage: Vec<f64> = on_reference
+        .par_iter()
+        .map(|(p, _)| output.distance(*p))
+        .collect();
+    Some(TwoSidedError {
+        samples,
+        to_reference: Distances::of(to_reference),
+        coverage: Distances::of(coverage),
+        reference_size: reference.size(),
+    })
 }

@@ -6,6 +6,10 @@
 //! - difference `S₁ − S₂` keeps `{p∈P₁ | f₂(p) > 0} ∪ {p∈P₂ | f₁(p) ≤ 0}`, normals of the
 //!   latter flipped.
 //!
+//! `fᵢ` here is the trusted value ([`GlobalField::trusted_value`]): where the other field is
+//! not trusted and its sign disagrees with its nearest oriented point, the point's side wins,
+//! so a spurious blob of one operand cannot swallow or spare the other's points.
+//!
 //! Sharp edges: the kept points thin out towards the intersection curve, where a refit would
 //! round the crease. For every kept point within `edge_band` of the other surface, its nearest
 //! point on the curve `{f₁ = 0, f₂ = 0}` is found by Gauss–Newton on both constraints; extra
@@ -138,7 +142,9 @@ pub fn csg(
     for (from, me, other) in [(1u8, &a, &b), (2u8, &b, &a)] {
         let flip = op == CsgOp::Difference && from == 2;
         for (i, &p) in me.positions.iter().enumerate() {
-            let f_other = other.field.value(p);
+            // Classified by the trusted value: a spurious blob of the other field's zero set
+            // beyond its points must not swallow (or spare) these points.
+            let f_other = other.field.trusted_value(p);
             if !keeps(op, from, f_other) {
                 continue;
             }
@@ -173,15 +179,15 @@ pub fn csg(
             continue;
         };
         let mut across = tangent.cross(n_me);
-        if !keeps(op, from, other.field.value(c + across * band * 0.5)) {
+        if !keeps(op, from, other.field.trusted_value(c + across * band * 0.5)) {
             across = -across;
         }
         let color = me.colors.map(|cs| cs[i]);
         for k in 0..opts.edge_samples {
             let s = band * (k as f64 + 0.05) / opts.edge_samples as f64;
-            let q = me.field.project_to_zero_set(c + across * s).point;
-            let (fo, _) = other.field.value_and_gradient(q);
-            if !q.is_finite() || !keeps(op, from, fo) {
+            let pr = me.field.project_to_zero_set(c + across * s);
+            let q = pr.point;
+            if !(q.is_finite() && pr.trusted && keeps(op, from, other.field.trusted_value(q))) {
                 continue;
             }
             let (_, gq) = me.field.value_and_gradient(q);

@@ -6,10 +6,13 @@
 //! The point-set surface (DESIGN §2), stage by stage:
 //! [`knn::PointIndex`] and [`knn::KnnGraph`] → [`normals`] (PCA, MST orientation) →
 //! [`field::GlobalField::build`] (per-point [`local_fit`] B-spline fields, blended) →
-//! queries `value`, `value_and_gradient`, `project_to_zero_set`; [`mesh`] extracts the zero set;
-//! [`reconstruct`] runs all stages; [`sampling`] makes analytic test shapes with exact signed
-//! distances; [`accuracy`] measures a zero set against a reference; [`io`] reads and writes
-//! PLY, OFF, OBJ, XYZ/PWN and STL.
+//! queries `value`, `value_and_gradient`, `project_to_zero_set`, and `is_trusted` (the zero set
+//! is only evidence of a surface near the points: meshing, projection, region grids and CSG
+//! classification all ignore it elsewhere); [`mesh`] extracts the trusted zero set, evaluating
+//! only the [`sparse`] blocks near the points; [`reconstruct`] runs all stages; [`sampling`]
+//! makes analytic test shapes with exact signed distances; [`accuracy`] measures a surface
+//! against a reference both ways (spurious pieces and holes); [`io`] reads and writes PLY, OFF,
+//! OBJ, XYZ/PWN and STL.
 //!
 //! Haptic rendering (DESIGN §4–5): [`haptic`] (Kim-style field force with a virtual contact
 //! point, friction and damping; the local contact models the haptics server renders; the
@@ -45,6 +48,7 @@ pub mod reconstruct;
 pub mod resample;
 pub mod sampling;
 pub mod scene;
+pub mod sparse;
 pub mod spatial;
 pub mod tools;
 

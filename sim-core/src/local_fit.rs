@@ -37,6 +37,16 @@ pub struct FitParams {
     /// multiple of the global median) is an outlier: it gets no local field and is nobody's
     /// neighbour. So is a point whose normal opposes three quarters of its neighbours'.
     pub outlier_ratio: f64,
+    /// Where the zero set is trusted: within this fraction of its support radius of the nearest
+    /// (inlier) point. Beyond it a local fit is extrapolating, and a zero set there is a
+    /// spurious sheet or blob: meshing, projection, haptic grids and CSG classification ignore
+    /// it (see [`crate::field::GlobalField::is_trusted`]).
+    #[serde(default = "default_trust")]
+    pub trust: f64,
+}
+
+fn default_trust() -> f64 {
+    FitParams::default().trust
 }
 
 impl Default for FitParams {
@@ -50,6 +60,7 @@ impl Default for FitParams {
             support: 1.0,
             normal_agreement: -0.5,
             outlier_ratio: 4.0,
+            trust: 0.7,
         }
     }
 }

@@ -2,15 +2,26 @@
 //! cell crossed by the surface (the mean of its edge crossings, then Newton-projected onto the
 //! zero set), one quad per crossed grid edge, oriented so triangle normals point outward.
 //!
-//! Contract: only cells with a corner inside some local support emit geometry, so sign changes
-//! of the nearest-point fallback far from the surface cannot create spurious sheets. Vertices
-//! are finite.
+//! Only the trusted zero set is meshed ([`GlobalField::is_trusted`]): a cell emits a vertex when
+//! its first guess lies within the trust radius of a point, so sheets and blobs where local fits
+//! extrapolate, and sign changes of the nearest-point fallback far from the surface, leave no
+//! geometry. Since such a cell touches a point's trust ball, [`extract_zero_set`] evaluates the
+//! field only in the [`crate::sparse`] blocks those balls reach (cost ∝ surface, not box);
+//! [`extract_zero_set_dense`] evaluates every node and gives the same mesh.
+//!
+//! Contract: vertices are finite; deterministic for a field and grid.
+
+use std::collections::HashMap;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::field::GlobalField;
+use crate::field::{GlobalField, SupportList};
+use crate::grid::GridSpec;
 use crate::projection::{ProjectOptions, project_to_zero_set_with};
+use crate::sparse::{
+    BLOCK, BlockKey, all_blocks, block_dims, block_nodes, blocks_near, sample_block,
+};
 
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -41,112 +52,198 @@ impl TriMesh {
             .map(|v| v.try_normalize().unwrap_or(DVec3::ZERO))
             .collect()
     }
+
+    /// Total triangle area.
+    pub fn area(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    }
 }
 
-/// Extract the zero set of `field` inside `bounds` on a grid whose longest side has `resolution`
-/// cells (clamped to 8..=1024). Runs on all cores.
-pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution: usize) -> TriMesh {
+/// The grid [`extract_zero_set`] meshes on: covering `bounds` with `resolution` cells (clamped
+/// to 8..=2048) along the longest side.
+pub fn mesh_grid(bounds: (DVec3, DVec3), resolution: usize) -> GridSpec {
     let (lo, hi) = bounds;
     let extent = (hi - lo).max(DVec3::splat(1e-300));
-    let h = extent.max_element() / resolution.clamp(8, 1024) as f64;
+    let h = extent.max_element() / resolution.clamp(8, 2048) as f64;
     let dims = ((extent / h).ceil().as_uvec3() + glam::UVec3::ONE).max(glam::UVec3::splat(2));
-    let [nx, ny, nz] = [dims.x as usize, dims.y as usize, dims.z as usize];
-    let node = |i: usize, j: usize, k: usize| lo + DVec3::new(i as f64, j as f64, k as f64) * h;
-    // Node values, and whether a local support covers the node.
-    let values: Vec<(f64, bool)> = (0..nx * ny * nz)
-        .into_par_iter()
-        .map(|flat| {
-            let (i, j, k) = (flat % nx, (flat / nx) % ny, flat / (nx * ny));
-            let x = node(i, j, k);
-            (field.value(x), field.is_covered(x))
-        })
-        .collect();
-    let at = |i: usize, j: usize, k: usize| values[(k * ny + j) * nx + i].0;
-    let covered = |i: usize, j: usize, k: usize| values[(k * ny + j) * nx + i].1;
-    let (cx, cy, cz) = (nx - 1, ny - 1, nz - 1);
+    GridSpec {
+        origin: lo,
+        spacing: h,
+        dims: [dims.x as usize, dims.y as usize, dims.z as usize],
+    }
+}
+
+/// Extract the trusted zero set of `field` inside `bounds` on a grid whose longest side has
+/// `resolution` cells (clamped to 8..=2048), evaluating only the blocks near the points. Runs
+/// on all cores.
+pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution: usize) -> TriMesh {
+    let spec = mesh_grid(bounds, resolution);
+    let blocks = blocks_near(&spec, field.trusted_balls(), true);
+    extract_blocks(field, &spec, &blocks)
+}
+
+/// [`extract_zero_set`] evaluating the field at every node of the box (the reference the
+/// narrow-band path is tested against; O(resolution³)).
+pub fn extract_zero_set_dense(
+    field: &GlobalField,
+    bounds: (DVec3, DVec3),
+    resolution: usize,
+) -> TriMesh {
+    let spec = mesh_grid(bounds, resolution);
+    extract_blocks(field, &spec, &all_blocks(&spec))
+}
+
+/// Field evaluations [`extract_zero_set`] makes on this grid (nodes of the blocks it visits,
+/// shared faces counted per block), beside the dense grid's node count.
+pub fn evaluations(
+    field: &GlobalField,
+    bounds: (DVec3, DVec3),
+    resolution: usize,
+) -> (usize, usize) {
+    let spec = mesh_grid(bounds, resolution);
+    let blocks = blocks_near(&spec, field.trusted_balls(), true);
+    let sparse = blocks
+        .iter()
+        .map(|&b| block_nodes(&spec, b).1.iter().product::<usize>())
+        .sum();
+    (sparse, spec.node_count())
+}
+
+/// One evaluated block: node values and the vertex (if any) of each of its cells.
+struct MeshBlock {
+    key: BlockKey,
+    values: Vec<f64>,
+    /// Local cell index → vertex position.
+    vertices: Vec<(u32, DVec3)>,
+}
+
+fn extract_blocks(field: &GlobalField, spec: &GridSpec, blocks: &[BlockKey]) -> TriMesh {
+    let h = spec.spacing;
     let opts = ProjectOptions::default();
-    // One vertex per crossed cell with at least one covered corner.
-    let cell_vertex: Vec<Option<DVec3>> = (0..cx * cy * cz)
-        .into_par_iter()
-        .map(|flat| {
-            let (i, j, k) = (flat % cx, (flat / cx) % cy, flat / (cx * cy));
-            let mut corner = [0.0; 8];
-            let mut any_covered = false;
-            for (c, v) in corner.iter_mut().enumerate() {
-                let (a, b, d) = (i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
-                *v = at(a, b, d);
-                any_covered |= covered(a, b, d);
-            }
-            if !any_covered {
-                return None;
-            }
-            let (mut sum, mut count) = (DVec3::ZERO, 0.0);
-            for (a, b) in CUBE_EDGES {
-                let (fa, fb) = (corner[a], corner[b]);
-                if (fa < 0.0) != (fb < 0.0) {
-                    let t = fa / (fa - fb);
-                    let pa = corner_offset(a);
-                    sum += pa + (corner_offset(b) - pa) * t;
-                    count += 1.0;
+    let evaluated: Vec<MeshBlock> = blocks
+        .par_iter()
+        .map_init(SupportList::new, |supports, &key| {
+            let mut values = Vec::new();
+            sample_block(field, spec, key, supports, |_, f| f, &mut values);
+            let (first, count) = block_nodes(spec, key);
+            let at = |i: usize, j: usize, k: usize| values[(k * count[1] + j) * count[0] + i];
+            let mut vertices = Vec::new();
+            for k in 0..count[2] - 1 {
+                for j in 0..count[1] - 1 {
+                    for i in 0..count[0] - 1 {
+                        let mut corner = [0.0; 8];
+                        for (c, v) in corner.iter_mut().enumerate() {
+                            *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+                        }
+                        let (mut sum, mut n) = (DVec3::ZERO, 0.0);
+                        for (a, b) in CUBE_EDGES {
+                            let (fa, fb) = (corner[a], corner[b]);
+                            if (fa < 0.0) != (fb < 0.0) {
+                                let t = fa / (fa - fb);
+                                let pa = corner_offset(a);
+                                sum += pa + (corner_offset(b) - pa) * t;
+                                n += 1.0;
+                            }
+                        }
+                        if n == 0.0 {
+                            continue;
+                        }
+                        let guess = spec.node_position(first[0] + i, first[1] + j, first[2] + k)
+                            + sum / n * h;
+                        if !field.is_trusted(guess) {
+                            continue;
+                        }
+                        let pr = project_to_zero_set_with(field, guess, &opts);
+                        let ok = pr.converged
+                            && (pr.point - guess).length() < 2.0 * h
+                            && field.is_trusted(pr.point);
+                        let local = ((k * BLOCK + j) * BLOCK + i) as u32;
+                        vertices.push((local, if ok { pr.point } else { guess }));
+                    }
                 }
             }
-            if count == 0.0 {
-                return None;
+            MeshBlock {
+                key,
+                values,
+                vertices,
             }
-            let guess = node(i, j, k) + sum / count * h;
-            let pr = project_to_zero_set_with(field, guess, &opts);
-            let ok = pr.converged && (pr.point - guess).length() < 2.0 * h;
-            Some(if ok { pr.point } else { guess })
         })
         .collect();
+
     let mut mesh = TriMesh::default();
-    let mut id = vec![u32::MAX; cell_vertex.len()];
-    for (c, v) in cell_vertex.iter().enumerate() {
-        if let Some(p) = v {
-            id[c] = mesh.vertices.len() as u32;
-            mesh.vertices.push(*p);
+    let [bx, by, _] = block_dims(spec);
+    let block_key = |b: BlockKey| (b[2] * by + b[1]) * bx + b[0];
+    let mut slot: HashMap<usize, usize> = HashMap::with_capacity(evaluated.len());
+    // Vertex ids per block and local cell (u32::MAX: no vertex).
+    let mut ids: Vec<Vec<u32>> = Vec::with_capacity(evaluated.len());
+    for (s, b) in evaluated.iter().enumerate() {
+        slot.insert(block_key(b.key), s);
+        let mut cell_ids = vec![u32::MAX; BLOCK * BLOCK * BLOCK];
+        for &(local, p) in &b.vertices {
+            cell_ids[local as usize] = mesh.vertices.len() as u32;
+            mesh.vertices.push(p);
         }
+        ids.push(cell_ids);
     }
-    let cell = |i: usize, j: usize, k: usize| id[(k * cy + j) * cx + i];
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let f0 = at(i, j, k);
-                // Edges along +x, +y, +z from this node, with the four cells around each,
-                // listed counter-clockwise about the edge direction.
-                for axis in 0..3 {
-                    let (f1, quad) = match axis {
-                        0 if i + 1 < nx && j > 0 && k > 0 => (
-                            at(i + 1, j, k),
-                            [(i, j - 1, k - 1), (i, j, k - 1), (i, j, k), (i, j - 1, k)],
-                        ),
-                        1 if j + 1 < ny && i > 0 && k > 0 => (
-                            at(i, j + 1, k),
-                            [(i - 1, j, k - 1), (i - 1, j, k), (i, j, k), (i, j, k - 1)],
-                        ),
-                        2 if k + 1 < nz && i > 0 && j > 0 => (
-                            at(i, j, k + 1),
-                            [(i - 1, j - 1, k), (i, j - 1, k), (i, j, k), (i - 1, j, k)],
-                        ),
-                        _ => continue,
-                    };
-                    if (f0 < 0.0) == (f1 < 0.0) {
-                        continue;
+    let [cx, cy, cz] = spec.dims.map(|n| n - 1);
+    let cell = |i: usize, j: usize, k: usize| -> u32 {
+        let b = [i / BLOCK, j / BLOCK, k / BLOCK];
+        match slot.get(&block_key(b)) {
+            Some(&s) => ids[s][((k % BLOCK) * BLOCK + j % BLOCK) * BLOCK + i % BLOCK],
+            None => u32::MAX,
+        }
+    };
+    for b in &evaluated {
+        let (first, count) = block_nodes(spec, b.key);
+        let at = |i: usize, j: usize, k: usize| b.values[(k * count[1] + j) * count[0] + i];
+        // The block owns the edges starting at its nodes 0..BLOCK on each axis.
+        for lk in 0..count[2].min(BLOCK) {
+            for lj in 0..count[1].min(BLOCK) {
+                for li in 0..count[0].min(BLOCK) {
+                    let (i, j, k) = (first[0] + li, first[1] + lj, first[2] + lk);
+                    let f0 = at(li, lj, lk);
+                    // Edges along +x, +y, +z from this node, with the four cells around each,
+                    // listed counter-clockwise about the edge direction.
+                    for axis in 0..3 {
+                        let (f1, quad) = match axis {
+                            0 if li + 1 < count[0] && j > 0 && k > 0 => (
+                                at(li + 1, lj, lk),
+                                [(i, j - 1, k - 1), (i, j, k - 1), (i, j, k), (i, j - 1, k)],
+                            ),
+                            1 if lj + 1 < count[1] && i > 0 && k > 0 => (
+                                at(li, lj + 1, lk),
+                                [(i - 1, j, k - 1), (i - 1, j, k), (i, j, k), (i, j, k - 1)],
+                            ),
+                            2 if lk + 1 < count[2] && i > 0 && j > 0 => (
+                                at(li, lj, lk + 1),
+                                [(i - 1, j - 1, k), (i, j - 1, k), (i, j, k), (i - 1, j, k)],
+                            ),
+                            _ => continue,
+                        };
+                        if (f0 < 0.0) == (f1 < 0.0) {
+                            continue;
+                        }
+                        if quad.iter().any(|&(a, b, c)| a >= cx || b >= cy || c >= cz) {
+                            continue;
+                        }
+                        let v = quad.map(|(a, b, c)| cell(a, b, c));
+                        if v.contains(&u32::MAX) {
+                            continue;
+                        }
+                        // Inside → outside along +axis: the quad's normal (+axis) is outward.
+                        let tris = if f0 < 0.0 {
+                            [[v[0], v[1], v[2]], [v[0], v[2], v[3]]]
+                        } else {
+                            [[v[0], v[2], v[1]], [v[0], v[3], v[2]]]
+                        };
+                        mesh.triangles.extend(tris);
                     }
-                    if quad.iter().any(|&(a, b, c)| a >= cx || b >= cy || c >= cz) {
-                        continue;
-                    }
-                    let v = quad.map(|(a, b, c)| cell(a, b, c));
-                    if v.contains(&u32::MAX) {
-                        continue;
-                    }
-                    // Inside → outside along +axis: the quad's normal (+axis) is outward.
-                    let tris = if f0 < 0.0 {
-                        [[v[0], v[1], v[2]], [v[0], v[2], v[3]]]
-                    } else {
-                        [[v[0], v[2], v[1]], [v[0], v[3], v[2]]]
-                    };
-                    mesh.triangles.extend(tris);
                 }
             }
         }
@@ -185,7 +282,34 @@ fn corner_offset(c: usize) -> DVec3 {
 }
 
 /// The point of triangle `abc` closest to `p` (Ericson, Real-Time Collision Detection §5.1.5).
+/// A degenerate triangle (collinear or coincident corners, which other tools' meshes contain)
+/// is measured as its three edges.
 pub fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let q = closest_on_proper_triangle(p, a, b, c);
+    if q.is_finite() && (b - a).cross(c - a).length_squared() > 0.0 {
+        return q;
+    }
+    [(a, b), (b, c), (c, a)]
+        .map(|(u, v)| closest_on_segment(p, u, v))
+        .into_iter()
+        .min_by(|x, y| {
+            (*x - p)
+                .length_squared()
+                .total_cmp(&(*y - p).length_squared())
+        })
+        .unwrap_or(a)
+}
+
+fn closest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    if len2.is_nan() || len2 <= 0.0 {
+        return a;
+    }
+    a + ab * ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+}
+
+fn closest_on_proper_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
     if d1 <= 0.0 && d2 <= 0.0 {

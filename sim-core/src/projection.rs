@@ -3,7 +3,8 @@
 //!
 //! Contract: at most `max_iterations` field evaluations, no allocation, a finite result for any
 //! finite start; when it does not converge the last iterate is returned with `converged: false`.
-//! A non-finite start is returned unchanged with `converged: false`.
+//! A non-finite start is returned unchanged with `converged: false`. Every result says whether
+//! it is [`Projection::trusted`].
 
 use glam::DVec3;
 
@@ -41,6 +42,10 @@ pub struct Projection {
     pub iterations: u32,
     /// Whether `|f|` reached the tolerance.
     pub converged: bool,
+    /// Whether the field is trusted at `point` ([`GlobalField::is_trusted`]): a converged
+    /// projection that is not trusted landed on a spurious piece of the zero set, away from the
+    /// data, and callers must not treat it as the surface.
+    pub trusted: bool,
 }
 
 impl GlobalField {
@@ -63,6 +68,7 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
             value: f,
             iterations: 0,
             converged: false,
+            trusted: false,
         };
     }
     for it in 0..opt.max_iterations {
@@ -72,6 +78,7 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
                 value: f,
                 iterations: it,
                 converged: true,
+                trusted: field.is_trusted(p),
             };
         }
         let g2 = g.length_squared();
@@ -105,5 +112,6 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
         value: f,
         iterations: opt.max_iterations,
         converged,
+        trusted: field.is_trusted(p),
     }
 }

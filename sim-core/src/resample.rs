@@ -130,7 +130,7 @@ pub fn upsample_at(
             continue;
         };
         let close = |x: &Insertion| x.position.distance(proj.point) < 0.5 * opts.max_gap;
-        if !proj.converged || out.iter().rev().take(64).any(close) {
+        if !(proj.converged && proj.trusted) || out.iter().rev().take(64).any(close) {
             continue;
         }
         out.push(Insertion {
@@ -189,7 +189,11 @@ pub fn downsample(points: &PointSet, field: &GlobalField, min_distance: f64) -> 
         mean /= k as f64;
         let p = if k > 1 {
             let proj = field.project_to_zero_set(mean);
-            if proj.converged { proj.point } else { pos[i] }
+            if proj.converged && proj.trusted {
+                proj.point
+            } else {
+                pos[i]
+            }
         } else {
             pos[i]
         };

@@ -53,6 +53,17 @@ pub enum Shape {
         /// Thickness.
         thickness: f64,
     },
+    /// A CSG difference with a sharp crease: the sphere of `radius` at the origin minus the
+    /// sphere of radius `cutter` centred at `(offset, 0, 0)` (which must cut its rim:
+    /// `|radius − cutter| < offset < radius + cutter`, and `offset > 0`).
+    Carved {
+        /// The body's radius.
+        radius: f64,
+        /// The cutter's radius.
+        cutter: f64,
+        /// The cutter's centre on +x.
+        offset: f64,
+    },
 }
 
 /// Perturbations for noisy samples.
@@ -85,6 +96,16 @@ impl Shape {
                 d.max_element().min(0.0) + d.max(glam::DVec2::ZERO).length()
             }
             Shape::Plate { .. } => self.as_box().signed_distance(p),
+            Shape::Carved {
+                radius,
+                cutter,
+                offset,
+            } => {
+                let c = DVec3::new(offset, 0.0, 0.0);
+                let inside = p.length() < radius && (p - c).length() > cutter;
+                let d = carved_distance(radius, cutter, offset, p);
+                if inside { -d } else { d }
+            }
         }
     }
 
@@ -114,6 +135,7 @@ impl Shape {
                 half_size,
                 thickness,
             } => DVec3::new(half_size, half_size, thickness / 2.0),
+            Shape::Carved { radius, .. } => DVec3::splat(radius),
         };
         (-h, h)
     }
@@ -139,6 +161,15 @@ impl Shape {
                 half_height,
             } => TAU * radius * 2.0 * half_height + 2.0 * PI * radius * radius,
             Shape::Plate { .. } => self.as_box().area(),
+            Shape::Carved {
+                radius: r,
+                cutter: q,
+                offset: d,
+            } => {
+                // Spherical caps cut by the plane of the crease circle, x = a.
+                let a = (r * r - q * q + d * d) / (2.0 * d);
+                TAU * r * (r + a) + TAU * q * (q - (d - a))
+            }
         }
     }
 
@@ -227,8 +258,50 @@ impl Shape {
                 }
             }
             Shape::Plate { .. } => self.as_box().sample_one(rng),
+            Shape::Carved {
+                radius,
+                cutter,
+                offset,
+            } => loop {
+                // Area-uniform on both spheres, kept where they bound the difference.
+                let c = DVec3::new(offset, 0.0, 0.0);
+                let u = unit_vector(rng);
+                let body =
+                    rng.random::<f64>() * (radius * radius + cutter * cutter) < radius * radius;
+                if body {
+                    let p = u * radius;
+                    if (p - c).length() >= cutter {
+                        return (p, u);
+                    }
+                } else {
+                    let p = c + u * cutter;
+                    if p.length() <= radius {
+                        return (p, -u);
+                    }
+                }
+            },
         }
     }
+}
+
+/// Exact distance to the surface of [`Shape::Carved`]: the nearer of its two spherical patches,
+/// each the radial projection when that lands on the patch, else the crease circle.
+fn carved_distance(radius: f64, cutter: f64, offset: f64, p: DVec3) -> f64 {
+    let c = DVec3::new(offset, 0.0, 0.0);
+    let a = (radius * radius - cutter * cutter + offset * offset) / (2.0 * offset);
+    let rho = (radius * radius - a * a).max(0.0).sqrt();
+    let to_crease = glam::DVec2::new(p.x - a, glam::DVec2::new(p.y, p.z).length() - rho).length();
+    let on_body = p.try_normalize().map(|u| u * radius);
+    let body = match on_body {
+        Some(q) if (q - c).length() >= cutter => (p.length() - radius).abs(),
+        _ => to_crease,
+    };
+    let on_cutter = (p - c).try_normalize().map(|u| c + u * cutter);
+    let cut = match on_cutter {
+        Some(q) if q.length() <= radius => ((p - c).length() - cutter).abs(),
+        _ => to_crease,
+    };
+    body.min(cut)
 }
 
 fn sample_rounded_box(rng: &mut ChaCha8Rng, half: DVec3, r: f64) -> (DVec3, DVec3) {

@@ -289,7 +289,7 @@ impl Scene {
             .ok_or(SceneError::NoObject(object))?;
         let spec = GridSpec::try_covering(min, max, params.spacing)?;
         let field = obj.field.clone();
-        let rest = ScalarGrid::from_fn(spec, |x| field.value(x));
+        let rest = crate::sparse::sample_trusted(&field, spec);
         let model = DynamicGrid::new(&rest, params.band, params.node)?;
         let inside = (0..obj.positions.len() as u32)
             .filter(|&i| spec.contains(obj.positions[i as usize]))

@@ -26,14 +26,15 @@ struct Level {
     cells: HashMap<u64, (u32, u32), BuildHasherDefault<MulHasher>>,
     /// Supports sorted by cell, with their centre and squared radius inline so the distance
     /// test reads contiguous memory.
-    items: Vec<Item>,
+    items: Vec<SupportItem>,
 }
 
+/// One stored support: centre, squared radius, id.
 #[derive(Debug, Clone, Copy)]
-struct Item {
-    center: DVec3,
-    radius2: f64,
-    id: u32,
+pub(crate) struct SupportItem {
+    pub(crate) center: DVec3,
+    pub(crate) radius2: f64,
+    pub(crate) id: u32,
 }
 
 impl SupportGrid {
@@ -82,7 +83,7 @@ impl SupportGrid {
                 }
                 level.items = list
                     .into_iter()
-                    .map(|(_, i)| Item {
+                    .map(|(_, i)| SupportItem {
                         center: centers[i as usize],
                         radius2: radius[i as usize] * radius[i as usize],
                         id: i,
@@ -129,6 +130,44 @@ impl SupportGrid {
                                 if dist2 < item.radius2 {
                                     visit(item.id as usize, rel, dist2);
                                 }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl SupportGrid {
+    /// Replace `out` by every support whose ball reaches into the box `[lo, hi]`, in the order
+    /// [`SupportGrid::for_each_containing`] would meet them.
+    pub(crate) fn gather_box(&self, lo: DVec3, hi: DVec3, out: &mut Vec<SupportItem>) {
+        out.clear();
+        for level in &self.levels {
+            if level.items.is_empty() {
+                continue;
+            }
+            // A support lives in its centre's cell, and its radius is at most half a cell.
+            let first = ((lo - self.origin) / level.cell - DVec3::splat(0.5)).floor();
+            let last = ((hi - self.origin) / level.cell + DVec3::splat(0.5)).floor();
+            if !(first.is_finite() && last.is_finite())
+                || first.abs().max_element() > 1e15
+                || last.abs().max_element() > 1e15
+            {
+                continue;
+            }
+            let (first, last) = (first.as_i64vec3(), last.as_i64vec3());
+            for z in first.z..=last.z {
+                for y in first.y..=last.y {
+                    for x in first.x..=last.x {
+                        let Some(&(s, e)) = level.cells.get(&key([x, y, z])) else {
+                            continue;
+                        };
+                        for item in &level.items[s as usize..e as usize] {
+                            let gap = (lo - item.center).max(item.center - hi).max(DVec3::ZERO);
+                            if gap.length_squared() < item.radius2 {
+                                out.push(*item);
                             }
                         }
                     }

@@ -3,7 +3,11 @@
 //! optionally mesh it.
 //!
 //! Errors are relative to the reference size: the radius for an analytic sphere, the
-//! bounding-box diagonal otherwise. Timing uses the wall clock around each sim-core stage.
+//! bounding-box diagonal otherwise. The figure to judge a surface by is the two-sided one
+//! (`surface`): the zero set is meshed at `--resolution` and sampled over its whole area against
+//! the reference, and the reference against it, so spurious sheets and holes both count. The
+//! projected figure (`projected_*`) only sees the zero set near the data. Timing uses the wall
+//! clock around each sim-core stage and around meshing.
 
 pub mod spec;
 
@@ -16,7 +20,9 @@ use anyhow::{Context, bail};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use sim_core::accuracy::{MeshReference, Reference, zero_set_error};
+use sim_core::accuracy::{
+    Distances, MeshReference, Reference, TwoSidedError, mesh_error, zero_set_error,
+};
 use sim_core::io::{self, Format, Loaded};
 use sim_core::mesh::{TriMesh, extract_zero_set};
 use sim_core::reconstruct::{NormalPolicy, Stage, StageObserver, reconstruct};
@@ -34,10 +40,11 @@ const ERROR_SEED_SALT: u64 = 0x9e37_79b9_7f4a_7c15;
 pub struct FitArgs {
     /// Point or mesh file (.ply .off .obj .xyz .pwn .stl), or a generator: gen:sphere:R:N,
     /// gen:torus:R:r:N, gen:ellipsoid:a:b:c:N, gen:box:hx:hy:hz:round:N,
-    /// gen:cylinder:radius:height:N, gen:plate:side:thickness:N.
+    /// gen:cylinder:radius:height:N, gen:plate:side:thickness:N, gen:carved:R:r:d:N (sphere R
+    /// minus sphere r at distance d: a CSG difference with a sharp crease).
     pub input: String,
     /// Ground truth: sphere:R, torus:R,r, ellipsoid:a,b,c, box:hx,hy,hz,round, cylinder:r,h,
-    /// plate:side,t, mesh:FILE or none. Default: the generator's shape, or the input file's own
+    /// plate:side,t, carved:R,r,d, mesh:FILE or none. Default: the generator's shape, or the input file's own
     /// faces when it has any.
     #[arg(long)]
     pub reference: Option<String>,
@@ -65,19 +72,29 @@ pub struct FitArgs {
     /// Tikhonov weight toward the planar field (relative).
     #[arg(long, default_value_t = FitParams::default().regularization)]
     pub regularization: f64,
+    /// Trust radius, relative to each point's support radius: the zero set farther than this
+    /// from every point is where local fits extrapolate, and is not meshed or touched.
+    #[arg(long, default_value_t = FitParams::default().trust)]
+    pub trust: f64,
     /// What to do with given normals: keep, reorient (fix flipped ones) or estimate (ignore).
     #[arg(long, value_enum, default_value_t = NormalsArg::Keep)]
     pub normals: NormalsArg,
-    /// Points projected onto the zero set to measure the error.
+    /// Points projected onto the zero set for the projected error (0: skip it).
     #[arg(long, default_value_t = 10_000)]
     pub error_samples: usize,
+    /// Samples on each side for the two-sided surface error: on the meshed zero set against the
+    /// reference, and on the reference against the mesh (0: skip it, and skip meshing unless
+    /// --mesh asks for it).
+    #[arg(long, default_value_t = 100_000)]
+    pub surface_samples: usize,
     /// Seed of the generator and of the error samples.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Gaussian position noise for generated input, relative to the reference size.
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
-    /// Grid cells along the longest side for --mesh.
+    /// Grid cells along the longest side of the points' bounding box, for --mesh and the surface
+    /// error (8..=1024; the grid extends a few cells beyond the box at the same spacing).
     #[arg(long, default_value_t = 128)]
     pub resolution: usize,
     /// Hide the progress bar.
@@ -121,15 +138,18 @@ pub struct FitReport {
     pub reference: Option<String>,
     /// Length the relative errors are divided by.
     pub reference_size: Option<f64>,
-    /// RMS zero-set distance to the reference, relative to `reference_size`.
-    pub rms_error: Option<f64>,
-    /// Max zero-set distance to the reference, relative to `reference_size`.
-    pub max_error: Option<f64>,
-    /// RMS distance in metres.
-    pub rms_error_abs: Option<f64>,
-    /// Max distance in metres.
-    pub max_error_abs: Option<f64>,
-    /// Points projected for the error.
+    /// Two-sided error of the meshed zero set, relative to `reference_size`.
+    pub surface: Option<SurfaceError>,
+    /// RMS distance to the reference of points projected onto the zero set from near the
+    /// reference, relative to `reference_size` (blind to zero-set pieces away from the data).
+    pub projected_rms_error: Option<f64>,
+    /// Max of the same, relative.
+    pub projected_max_error: Option<f64>,
+    /// Projected RMS in metres.
+    pub projected_rms_error_abs: Option<f64>,
+    /// Projected max in metres.
+    pub projected_max_error_abs: Option<f64>,
+    /// Points projected for the projected error.
     pub error_samples: usize,
     /// Projections that did not converge (still counted).
     pub unconverged: usize,
@@ -137,8 +157,39 @@ pub struct FitReport {
     pub measure_s: f64,
     /// The fit parameters.
     pub params: FitParams,
-    /// Triangles written with --mesh.
+    /// Triangles of the meshed zero set (written with --mesh).
     pub mesh_triangles: Option<usize>,
+    /// Meshing wall time, seconds (also when only the surface error needed the mesh).
+    pub mesh_s: Option<f64>,
+    /// Field evaluations meshing made (nodes of the blocks near the points), and the node
+    /// count of the whole box at that resolution (what dense meshing would evaluate).
+    pub mesh_evaluations: Option<[usize; 2]>,
+    /// Grid cells along the longest side of the points' box.
+    pub resolution: usize,
+}
+
+/// The two-sided error, relative to the reference size (see
+/// [`sim_core::accuracy::mesh_error`]).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct SurfaceError {
+    /// Samples on each side.
+    pub samples: usize,
+    /// Mesh → reference: spurious pieces show here.
+    pub to_reference: Distances,
+    /// Reference → mesh: holes show here.
+    pub coverage: Distances,
+}
+
+impl SurfaceError {
+    /// The relative form of a [`TwoSidedError`].
+    pub fn relative(e: &TwoSidedError) -> Self {
+        let (to_reference, coverage) = e.relative();
+        Self {
+            samples: e.samples,
+            to_reference,
+            coverage,
+        }
+    }
 }
 
 struct Timer {
@@ -195,6 +246,11 @@ fn write_mesh(path: &Path, mesh: &TriMesh) -> anyhow::Result<()> {
 
 /// Run `fit` and return the report (printing is the caller's choice; see [`print`]).
 pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
+    anyhow::ensure!(
+        args.surface_samples <= MAX_SURFACE_SAMPLES,
+        "--surface-samples must be at most {MAX_SURFACE_SAMPLES} (got {})",
+        args.surface_samples
+    );
     anyhow::ensure!(
         args.noise.is_finite() && args.noise >= 0.0,
         "--noise must be finite and ≥ 0 (got {})",
@@ -253,6 +309,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         offset: args.offset,
         weight_width: args.weight_width,
         regularization: args.regularization,
+        trust: args.trust,
         ..FitParams::default()
     };
     let policy = match args.normals {
@@ -279,24 +336,50 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
     bar.finish_and_clear();
 
     let t1 = Instant::now();
-    let error = reference.as_ref().map(|(_, r)| {
-        zero_set_error(
-            &rec.field,
-            r.as_ref(),
-            args.error_samples,
-            0.5,
-            args.seed ^ ERROR_SEED_SALT,
-        )
-    });
+    let error = reference
+        .as_ref()
+        .filter(|_| args.error_samples > 0)
+        .map(|(_, r)| {
+            zero_set_error(
+                &rec.field,
+                r.as_ref(),
+                args.error_samples,
+                0.5,
+                args.seed ^ ERROR_SEED_SALT,
+            )
+        });
     let measure_s = t1.elapsed().as_secs_f64();
 
-    let mut mesh_triangles = None;
-    if let Some(out) = &args.mesh {
+    let want_surface = reference.is_some() && args.surface_samples > 0;
+    let (mut mesh_triangles, mut mesh_s, mut surface) = (None, None, None);
+    let mut mesh_evaluations = None;
+    if args.mesh.is_some() || want_surface {
+        let t2 = Instant::now();
         let (lo, hi) = points.bounds().context("no points")?;
         let pad = DVec3::splat(0.05 * (hi - lo).length() + 2.0 * rec.field.scale());
-        let mesh = extract_zero_set(&rec.field, (lo - pad, hi + pad), args.resolution);
-        write_mesh(out, &mesh)?;
+        // `--resolution` counts cells across the points' box (as other tools do); the grid
+        // extends past it by the padding at the same spacing.
+        let cells = args.resolution.clamp(8, 1024) as f64;
+        let padded = ((hi - lo + 2.0 * pad).max_element() / (hi - lo).max_element() * cells).ceil();
+        let box_ = (lo - pad, hi + pad);
+        let mesh = extract_zero_set(&rec.field, box_, padded as usize);
+        mesh_s = Some(t2.elapsed().as_secs_f64());
+        let (sparse, dense) = sim_core::mesh::evaluations(&rec.field, box_, padded as usize);
+        mesh_evaluations = Some([sparse, dense]);
         mesh_triangles = Some(mesh.triangles.len());
+        if let Some(out) = &args.mesh {
+            write_mesh(out, &mesh)?;
+        }
+        if let Some((_, r)) = reference.as_ref().filter(|_| want_surface) {
+            let e = mesh_error(
+                &mesh,
+                r.as_ref(),
+                args.surface_samples,
+                args.seed ^ ERROR_SEED_SALT,
+            )
+            .context("the meshed zero set is empty: nothing to measure against the reference")?;
+            surface = Some(SurfaceError::relative(&e));
+        }
     }
     if let Some(out) = &args.points_out {
         let fitted = PointSet {
@@ -318,16 +401,20 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         estimated_normals: rec.estimated_normals,
         outliers: rec.field.outlier_count(),
         reference: reference.as_ref().map(|(name, _)| name.clone()),
-        reference_size: error.map(|e| e.reference_size),
-        rms_error: error.map(|e| e.rms_relative()),
-        max_error: error.map(|e| e.max_relative()),
-        rms_error_abs: error.map(|e| e.rms),
-        max_error_abs: error.map(|e| e.max),
+        reference_size: reference.as_ref().map(|(_, r)| r.size()),
+        surface,
+        projected_rms_error: error.map(|e| e.rms_relative()),
+        projected_max_error: error.map(|e| e.max_relative()),
+        projected_rms_error_abs: error.map(|e| e.rms),
+        projected_max_error_abs: error.map(|e| e.max),
         error_samples: error.map_or(0, |e| e.samples),
         unconverged: error.map_or(0, |e| e.unconverged),
         measure_s,
         params,
         mesh_triangles,
+        mesh_s,
+        mesh_evaluations,
+        resolution: args.resolution,
     })
 }
 
@@ -351,21 +438,142 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
     println!("normals      {:9.4} s", r.normals_s);
     println!("fits         {:9.4} s", r.fits_s);
     println!("construction {:9.4} s total", r.construct_s);
-    match (&r.reference, r.rms_error, r.max_error, r.reference_size) {
-        (Some(name), Some(rms), Some(max), Some(size)) => {
-            println!("reference    {name} (size {size:.6e} m)");
-            println!(
-                "zero set     RMS {rms:.3e}, max {max:.3e} of the reference size over {} projected points ({} unconverged)",
-                r.error_samples, r.unconverged
-            );
+    match (&r.reference, r.reference_size) {
+        (Some(name), Some(size)) => println!("reference    {name} (size {size:.6e} m)"),
+        _ => println!("reference    none given (use --reference sphere:R | torus:R,r | mesh:FILE)"),
+    }
+    if let (Some(t), Some(s)) = (r.mesh_triangles, r.mesh_s) {
+        println!(
+            "mesh         {t} triangles at resolution {} in {s:.4} s",
+            r.resolution
+        );
+    }
+    if let Some([sparse, dense]) = r.mesh_evaluations {
+        println!(
+            "             {sparse} field evaluations ({:.1} % of the box's {dense} nodes)",
+            100.0 * sparse as f64 / dense.max(1) as f64
+        );
+    }
+    if let Some(e) = &r.surface {
+        let d = |x: &Distances| format!("RMS {:.3e}, p99 {:.3e}, max {:.3e}", x.rms, x.p99, x.max);
+        println!(
+            "surface      mesh → reference   {} ({} samples each way, relative to the reference size)",
+            d(&e.to_reference),
+            e.samples
+        );
+        println!(
+            "             reference → mesh   {} (coverage)",
+            d(&e.coverage)
+        );
+    }
+    if let (Some(rms), Some(max)) = (r.projected_rms_error, r.projected_max_error) {
+        println!(
+            "projected    RMS {rms:.3e}, max {max:.3e} over {} points projected from near the reference ({} unconverged)",
+            r.error_samples, r.unconverged
+        );
+    }
+    Ok(())
+}
+
+/// Arguments of `workstation mesh-error`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MeshErrorArgs {
+    /// The mesh to measure (.ply .obj .off .stl), e.g. the output of `fit --mesh` or of another
+    /// reconstruction tool.
+    pub mesh: PathBuf,
+    /// Ground truth, as for `fit --reference`: sphere:R, torus:R,r, box:hx,hy,hz,round,
+    /// plate:side,t, carved:R,r,d, …, or mesh:FILE.
+    #[arg(long)]
+    pub reference: String,
+    /// Samples on each side (on the mesh, on the reference).
+    #[arg(long, default_value_t = 100_000)]
+    pub samples: usize,
+    /// Seed of the samples.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What `mesh-error` measured: the same two-sided figure `fit` reports as `surface`.
+#[derive(Debug, Clone, Serialize)]
+pub struct MeshErrorReport {
+    /// The mesh measured.
+    pub mesh: String,
+    /// The reference.
+    pub reference: String,
+    /// Length the relative figures are divided by.
+    pub reference_size: f64,
+    /// Samples on each side.
+    pub samples: usize,
+    /// Triangles in the mesh.
+    pub triangles: usize,
+    /// Mesh → reference, relative.
+    pub to_reference: Distances,
+    /// Reference → mesh (coverage), relative.
+    pub coverage: Distances,
+}
+
+/// Largest `--samples` of `mesh-error` (and `--surface-samples` of `fit`): 10⁷ per side.
+pub const MAX_SURFACE_SAMPLES: usize = 10_000_000;
+
+/// Run `mesh-error`.
+pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
+    anyhow::ensure!(
+        (1..=MAX_SURFACE_SAMPLES).contains(&args.samples),
+        "--samples must be in 1..={MAX_SURFACE_SAMPLES} (got {})",
+        args.samples
+    );
+    let mesh = read_file(&args.mesh)?
+        .mesh
+        .with_context(|| format!("{} has no faces", args.mesh.display()))?;
+    let reference: Box<dyn Reference> = match parse_reference(&args.reference)? {
+        ReferenceSpec::None => bail!("--reference none: mesh-error needs a reference"),
+        ReferenceSpec::Shape(shape) => Box::new(shape),
+        ReferenceSpec::Mesh(path) => {
+            let m = read_file(&path)?
+                .mesh
+                .with_context(|| format!("{} has no faces", path.display()))?;
+            Box::new(MeshReference::new(m).context("reference mesh has no triangles")?)
         }
-        _ => println!(
-            "zero set     no reference given (use --reference sphere:R | torus:R,r | mesh:FILE)"
-        ),
+    };
+    let e = mesh_error(&mesh, reference.as_ref(), args.samples, args.seed).with_context(|| {
+        format!(
+            "{}: the mesh has no triangle of positive area",
+            args.mesh.display()
+        )
+    })?;
+    let (to_reference, coverage) = e.relative();
+    Ok(MeshErrorReport {
+        mesh: args.mesh.display().to_string(),
+        reference: args.reference.clone(),
+        reference_size: e.reference_size,
+        samples: e.samples,
+        triangles: mesh.triangles.len(),
+        to_reference,
+        coverage,
+    })
+}
+
+/// Print a [`MeshErrorReport`] as text, or as one JSON object with `json`.
+pub fn print_mesh_error(r: &MeshErrorReport, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string(r)?);
+        return Ok(());
     }
-    if let Some(t) = r.mesh_triangles {
-        println!("mesh         {t} triangles written");
-    }
+    let d = |x: &Distances| format!("RMS {:.3e}, p99 {:.3e}, max {:.3e}", x.rms, x.p99, x.max);
+    println!("mesh         {} ({} triangles)", r.mesh, r.triangles);
+    println!(
+        "reference    {} (size {:.6e} m)",
+        r.reference, r.reference_size
+    );
+    println!(
+        "mesh → ref   {} ({} samples each way, relative to the size)",
+        d(&r.to_reference),
+        r.samples
+    );
+    println!("ref → mesh   {} (coverage)", d(&r.coverage));
     Ok(())
 }
 

@@ -39,6 +39,9 @@ enum Command {
     Status,
     /// Fit points (a file or gen:sphere:R:N) into an implicit surface; time it, measure its error.
     Fit(workstation::fit::FitArgs),
+    /// Measure any mesh against a reference both ways (mesh → reference finds spurious pieces,
+    /// reference → mesh finds holes): the metric `fit` reports, for comparing other tools.
+    MeshError(workstation::fit::MeshErrorArgs),
     /// Time one sculpting step per stage (tools, integrator, points, publish) with its field error.
     BenchSim(workstation::bench_sim::BenchSimArgs),
     /// Run a scripted sculpting session headless; write PLY points and meshes to --out.
@@ -66,6 +69,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Run(args) => workstation::live::run::run(&args),
         Command::HandPath(args) => workstation::live::run::hand_path_command(&args),
         Command::Render(args) => workstation::live::snapshot_png::run(&args),
+        Command::MeshError(args) => {
+            let report = workstation::fit::run_mesh_error(&args)?;
+            workstation::fit::print_mesh_error(&report, args.json)
+        }
         Command::Fit(args) => {
             let report = workstation::fit::run(&args)?;
             workstation::fit::print(&report, args.json)

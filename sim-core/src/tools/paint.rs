@@ -130,7 +130,7 @@ pub fn edge_insertions(
         for s in [-0.25, 0.25] {
             let proj = field.project_to_zero_set(p + radial * (s * spacing));
             let (_, g) = field.value_and_gradient(proj.point);
-            if let (true, Some(normal)) = (proj.converged, g.try_normalize()) {
+            if let (true, Some(normal)) = (proj.converged && proj.trusted, g.try_normalize()) {
                 out.push(Insertion {
                     position: proj.point,
                     normal,

@@ -7,4 +7,5 @@ mod hard_cases;
 mod io_formats;
 mod meshing;
 mod real_scan;
+mod trusted;
 mod untrusted_input;

@@ -103,14 +103,29 @@ pub fn shape(name: &str, p: &[f64]) -> anyhow::Result<Shape> {
                 thickness: p[1],
             }
         }
-        other => bail!("unknown shape {other:?} (sphere, torus, ellipsoid, box, cylinder, plate)"),
+        "carved" => {
+            want(3)?;
+            ensure!(
+                (p[0] - p[1]).abs() < p[2] && p[2] < p[0] + p[1],
+                "carved: the cutter (radius r at distance d) must cut the sphere's rim: |R − r| < d < R + r"
+            );
+            Shape::Carved {
+                radius: p[0],
+                cutter: p[1],
+                offset: p[2],
+            }
+        }
+        other => bail!(
+            "unknown shape {other:?} (sphere, torus, ellipsoid, box, cylinder, plate, carved)"
+        ),
     })
 }
 
 /// Parse INPUT: `gen:SHAPE:P1:...:N` or a file path.
 ///
 /// Generators: `gen:sphere:R:N`, `gen:torus:R:r:N`, `gen:ellipsoid:a:b:c:N`,
-/// `gen:box:hx:hy:hz:rounding:N`, `gen:cylinder:radius:height:N`, `gen:plate:side:thickness:N`.
+/// `gen:box:hx:hy:hz:rounding:N`, `gen:cylinder:radius:height:N`, `gen:plate:side:thickness:N`,
+/// `gen:carved:R:r:d:N` (a sphere minus a sphere: a CSG difference with a sharp crease).
 pub fn parse_input(s: &str) -> anyhow::Result<InputSpec> {
     let Some(rest) = s.strip_prefix("gen:") else {
         return Ok(InputSpec::File(PathBuf::from(s)));
@@ -187,6 +202,14 @@ mod tests {
             ReferenceSpec::Mesh("a.stl".into())
         );
         assert_eq!(parse_reference("none").unwrap(), ReferenceSpec::None);
+        assert_eq!(
+            parse_reference("carved:1,0.6,0.8").unwrap(),
+            ReferenceSpec::Shape(Shape::Carved {
+                radius: 1.0,
+                cutter: 0.6,
+                offset: 0.8
+            })
+        );
     }
 
     #[test]
@@ -197,6 +220,7 @@ mod tests {
             "gen:cube:1:10",
             "gen:torus:1:2:10",
             "gen:sphere:1:0",
+            "gen:carved:1:0.5:2:10",
         ] {
             assert!(parse_input(s).is_err(), "{s}");
         }

@@ -29,7 +29,13 @@ fn generated_sphere_reports_the_checked_json_fields() {
     ]);
     let report = run(&a).unwrap();
     let json: serde_json::Value = serde_json::to_value(&report).unwrap();
-    for key in ["points", "construct_s", "rms_error", "max_error"] {
+    for key in [
+        "points",
+        "construct_s",
+        "projected_rms_error",
+        "projected_max_error",
+        "surface",
+    ] {
         assert!(json.get(key).is_some_and(|v| !v.is_null()), "missing {key}");
     }
     assert_eq!(report.points, 3000);
@@ -39,7 +45,7 @@ fn generated_sphere_reports_the_checked_json_fields() {
         Some(2.0),
         "relative to R for a sphere"
     );
-    assert!(report.rms_error.unwrap() < 1e-3);
+    assert!(report.projected_rms_error.unwrap() < 1e-3);
     // The mesh file reads back with the triangles reported.
     let back = read_file(&mesh).unwrap().mesh.unwrap();
     assert_eq!(Some(back.triangles.len()), report.mesh_triangles);
@@ -69,7 +75,7 @@ fn file_input_with_faces_measures_against_its_own_mesh() {
     ]))
     .unwrap();
     assert_eq!(report.reference.as_deref(), Some("input mesh"));
-    assert!(report.max_error.unwrap() < 0.05, "{report:?}");
+    assert!(report.projected_max_error.unwrap() < 0.05, "{report:?}");
     let none = run(&args(&[
         mesh_path.to_str().unwrap(),
         "--quiet",
@@ -77,7 +83,7 @@ fn file_input_with_faces_measures_against_its_own_mesh() {
         "none",
     ]))
     .unwrap();
-    assert!(none.reference.is_none() && none.rms_error.is_none());
+    assert!(none.reference.is_none() && none.projected_rms_error.is_none());
     assert!(run(&args(&["missing.ply"])).is_err());
     assert!(run(&args(&["gen:sphere:1:100", "--reference", "mesh:nope.obj"])).is_err());
     std::fs::remove_dir_all(&dir).ok();
