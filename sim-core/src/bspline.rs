@@ -92,6 +92,22 @@ pub fn eval3(size: usize, coeffs: &[f64], u: f64, v: f64, w: f64) -> (f64, [f64;
     (f, [gu, gv, gw])
 }
 
+/// The value of [`eval3`] alone (the same arithmetic, so the same bits), for sampling grids.
+#[inline]
+pub fn eval3_value(size: usize, coeffs: &[f64], u: f64, v: f64, w: f64) -> f64 {
+    let (bu, bv, bw) = (basis1(size, u), basis1(size, v), basis1(size, w));
+    let mut f = 0.0;
+    for a in 0..3 {
+        for b in 0..3 {
+            let row = ((bu.span + a) * size + bv.span + b) * size + bw.span;
+            let c3 = &coeffs[row..row + 3];
+            let s = c3[0] * bw.value[0] + c3[1] * bw.value[1] + c3[2] * bw.value[2];
+            f += bu.value[a] * bv.value[b] * s;
+        }
+    }
+    f
+}
+
 /// The refit operator `[(B⊗C⊗D)ᵀ(B⊗C⊗D)]⁻¹(B⊗C⊗D)ᵀ` (papers' Eq. 4) for a fixed local grid.
 ///
 /// Maps field samples `d` at the `samples³` grid nodes of the unit cube (node `(i,j,l)` at

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::bspline::{MAX_SIZE, RefitOperator, eval3};
+use crate::bspline::{MAX_SIZE, RefitOperator, eval3, eval3_value};
 use crate::knn::{KnnGraph, PointIndex};
 use crate::local_fit::{FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local};
 use crate::outliers::flag_outliers;
@@ -229,18 +229,29 @@ impl GlobalField {
     /// switches on (the groups' mean normals crossing the threshold); elsewhere it is the
     /// papers' C¹ blend.
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
-        self.value_and_gradient_over(x, &self.inner.grid)
+        self.value_and_gradient_over::<true>(x, &self.inner.grid)
     }
 
     /// [`GlobalField::value_and_gradient`] with the supports taken from a list gathered once
     /// for a box (see [`GlobalField::gather_supports`]): equal to it for every `x` in that box,
     /// without the per-query index lookups. Block-wise grid sampling uses this.
     pub fn value_and_gradient_near(&self, x: DVec3, supports: &SupportList) -> (f64, DVec3) {
-        self.value_and_gradient_over(x, supports)
+        self.value_and_gradient_over::<true>(x, supports)
     }
 
-    fn value_and_gradient_over(&self, x: DVec3, supports: &impl Supports) -> (f64, DVec3) {
-        let [a, b] = self.blend(x, supports);
+    /// `f(x)` alone from a gathered list (see [`GlobalField::value_and_gradient_near`]): the
+    /// same value, bit for bit, without the gradient's cost. Grid sampling uses this.
+    pub fn value_near(&self, x: DVec3, supports: &SupportList) -> f64 {
+        self.value_and_gradient_over::<false>(x, supports).0
+    }
+
+    /// `f` and, with `GRAD`, `∇f` (else the gradient is meaningless where the blend defines f).
+    fn value_and_gradient_over<const GRAD: bool>(
+        &self,
+        x: DVec3,
+        supports: &impl Supports,
+    ) -> (f64, DVec3) {
+        let [a, b] = self.blend::<GRAD>(x, supports);
         let agreement = self.inner.params.normal_agreement;
         let opposed = a.sw > 0.0
             && b.sw > 0.0
@@ -269,7 +280,7 @@ impl GlobalField {
     /// Accumulate the blend at `x` over the supports containing it, in two groups split by the
     /// sign of each field's normal against the most central covering field's.
     #[inline]
-    fn blend(&self, x: DVec3, supports: &impl Supports) -> [Blend; 2] {
+    fn blend<const GRAD: bool>(&self, x: DVec3, supports: &impl Supports) -> [Blend; 2] {
         let d = &*self.inner;
         let size = d.params.size;
         let c = size * size * size;
@@ -290,21 +301,25 @@ impl GlobalField {
             let acc = &mut groups[usize::from(normal.dot(n_ref) < 0.0)];
             let dist = dist2.sqrt();
             let (phi, dphi) = weight(dist / r);
+            let [u, v, w] = fr.to_local(x);
+            acc.sw += phi;
+            acc.centre += fr.center * phi;
+            acc.normal += normal * phi;
+            if !GRAD {
+                acc.swf += phi * eval3_value(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
+                return;
+            }
             let gphi = if dist > 0.0 {
                 rel * (dphi / (r * dist))
             } else {
                 DVec3::ZERO
             };
-            let [u, v, w] = fr.to_local(x);
             let (s, gq) = eval3(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
             let inv_edge = 0.5 / fr.half;
             let gs = (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + normal * gq[2]) * inv_edge;
-            acc.sw += phi;
             acc.swf += phi * s;
             acc.gsw += gphi;
             acc.gswf += gphi * s + gs * phi;
-            acc.centre += fr.center * phi;
-            acc.normal += normal * phi;
         });
         groups
     }
@@ -528,6 +543,16 @@ impl SupportList {
     /// Whether no support reaches the box.
     pub fn is_empty(&self) -> bool {
         self.items.is_empty()
+    }
+
+    /// Replace `out` by the supports of this list that reach into the smaller box `[lo, hi]`,
+    /// in the same order (so blends over either list give the same bits inside that box).
+    pub fn narrow_to(&self, lo: DVec3, hi: DVec3, out: &mut SupportList) {
+        out.items.clear();
+        out.items.extend(self.items.iter().filter(|item| {
+            let gap = (lo - item.center).max(item.center - hi).max(DVec3::ZERO);
+            gap.length_squared() < item.radius2
+        }));
     }
 }
 

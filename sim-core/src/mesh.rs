@@ -20,7 +20,8 @@ use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
 use crate::projection::{ProjectOptions, project_to_zero_set_with};
 use crate::sparse::{
-    BLOCK, BlockKey, all_blocks, block_dims, block_nodes, blocks_near, sample_block,
+    BLOCK, BlockKey, all_blocks, block_dims, block_nodes, blocks_near, gather_block, sample_block,
+    sample_block_pruned,
 };
 
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside.
@@ -85,8 +86,11 @@ pub fn mesh_grid(bounds: (DVec3, DVec3), resolution: usize) -> GridSpec {
 pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution: usize) -> TriMesh {
     let spec = mesh_grid(bounds, resolution);
     let blocks = blocks_near(&spec, field.trusted_balls(), true);
-    extract_blocks(field, &spec, &blocks)
+    extract_blocks(field, &spec, &blocks, Some(PRUNE_LIPSCHITZ)).0
 }
+
+/// The slope bound [`extract_zero_set`] prunes with ([`crate::sparse::sample_block_pruned`]).
+pub const PRUNE_LIPSCHITZ: f64 = 2.0;
 
 /// [`extract_zero_set`] evaluating the field at every node of the box (the reference the
 /// narrow-band path is tested against; O(resolution³)).
@@ -96,23 +100,32 @@ pub fn extract_zero_set_dense(
     resolution: usize,
 ) -> TriMesh {
     let spec = mesh_grid(bounds, resolution);
-    extract_blocks(field, &spec, &all_blocks(&spec))
+    extract_blocks(field, &spec, &all_blocks(&spec), None).0
 }
 
-/// Field evaluations [`extract_zero_set`] makes on this grid (nodes of the blocks it visits,
-/// shared faces counted per block), beside the dense grid's node count.
-pub fn evaluations(
+/// What a meshing run evaluated.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct MeshStats {
+    /// Grid-node field evaluations (octree probes and the nodes of the cells near the zero set;
+    /// a node on a shared block face counts once per block).
+    pub evaluations: usize,
+    /// Nodes of the whole grid: what dense meshing evaluates.
+    pub box_nodes: usize,
+    /// Blocks near the points.
+    pub blocks_near: usize,
+    /// Of those, blocks that hold part of the mesh.
+    pub blocks_meshed: usize,
+}
+
+/// [`extract_zero_set`], also saying what it evaluated.
+pub fn extract_zero_set_with_stats(
     field: &GlobalField,
     bounds: (DVec3, DVec3),
     resolution: usize,
-) -> (usize, usize) {
+) -> (TriMesh, MeshStats) {
     let spec = mesh_grid(bounds, resolution);
     let blocks = blocks_near(&spec, field.trusted_balls(), true);
-    let sparse = blocks
-        .iter()
-        .map(|&b| block_nodes(&spec, b).1.iter().product::<usize>())
-        .sum();
-    (sparse, spec.node_count())
+    extract_blocks(field, &spec, &blocks, Some(PRUNE_LIPSCHITZ))
 }
 
 /// One evaluated block: node values and the vertex (if any) of each of its cells.
@@ -121,16 +134,33 @@ struct MeshBlock {
     values: Vec<f64>,
     /// Local cell index → vertex position.
     vertices: Vec<(u32, DVec3)>,
+    /// Field evaluations made for it.
+    evaluations: usize,
 }
 
-fn extract_blocks(field: &GlobalField, spec: &GridSpec, blocks: &[BlockKey]) -> TriMesh {
+/// Mesh `blocks`; with `prune`, evaluate only the octree boxes that can hold a sign change.
+fn extract_blocks(
+    field: &GlobalField,
+    spec: &GridSpec,
+    blocks: &[BlockKey],
+    prune: Option<f64>,
+) -> (TriMesh, MeshStats) {
     let h = spec.spacing;
     let opts = ProjectOptions::default();
     let evaluated: Vec<MeshBlock> = blocks
         .par_iter()
         .map_init(SupportList::new, |supports, &key| {
+            gather_block(field, spec, key, supports);
             let mut values = Vec::new();
-            sample_block(field, spec, key, supports, |_, f| f, &mut values);
+            let evaluations = match prune {
+                Some(lipschitz) => {
+                    sample_block_pruned(field, spec, key, supports, lipschitz, &mut values)
+                }
+                None => {
+                    sample_block(field, spec, key, supports, |_, f| f, &mut values);
+                    values.len()
+                }
+            };
             let (first, count) = block_nodes(spec, key);
             let at = |i: usize, j: usize, k: usize| values[(k * count[1] + j) * count[0] + i];
             let mut vertices = Vec::new();
@@ -140,6 +170,9 @@ fn extract_blocks(field: &GlobalField, spec: &GridSpec, blocks: &[BlockKey]) -> 
                         let mut corner = [0.0; 8];
                         for (c, v) in corner.iter_mut().enumerate() {
                             *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+                        }
+                        if corner.iter().any(|f| f.is_nan()) {
+                            continue; // pruned: no sign change here
                         }
                         let (mut sum, mut n) = (DVec3::ZERO, 0.0);
                         for (a, b) in CUBE_EDGES {
@@ -172,9 +205,16 @@ fn extract_blocks(field: &GlobalField, spec: &GridSpec, blocks: &[BlockKey]) -> 
                 key,
                 values,
                 vertices,
+                evaluations,
             }
         })
         .collect();
+    let stats = MeshStats {
+        evaluations: evaluated.iter().map(|b| b.evaluations).sum(),
+        box_nodes: spec.node_count(),
+        blocks_near: blocks.len(),
+        blocks_meshed: evaluated.iter().filter(|b| !b.vertices.is_empty()).count(),
+    };
 
     let mut mesh = TriMesh::default();
     let [bx, by, _] = block_dims(spec);
@@ -226,7 +266,7 @@ fn extract_blocks(field: &GlobalField, spec: &GridSpec, blocks: &[BlockKey]) -> 
                             ),
                             _ => continue,
                         };
-                        if (f0 < 0.0) == (f1 < 0.0) {
+                        if f0.is_nan() || f1.is_nan() || (f0 < 0.0) == (f1 < 0.0) {
                             continue;
                         }
                         if quad.iter().any(|&(a, b, c)| a >= cx || b >= cy || c >= cz) {
@@ -259,7 +299,7 @@ fn extract_blocks(field: &GlobalField, spec: &GridSpec, blocks: &[BlockKey]) -> 
                 .unwrap_or(DVec3::Z)
         })
         .collect();
-    mesh
+    (mesh, stats)
 }
 
 const CUBE_EDGES: [(usize, usize); 12] = [

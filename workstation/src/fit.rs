@@ -24,7 +24,7 @@ use sim_core::accuracy::{
     Distances, MeshReference, Reference, TwoSidedError, mesh_error, zero_set_error,
 };
 use sim_core::io::{self, Format, Loaded};
-use sim_core::mesh::{TriMesh, extract_zero_set};
+use sim_core::mesh::{TriMesh, extract_zero_set_with_stats};
 use sim_core::reconstruct::{NormalPolicy, Stage, StageObserver, reconstruct};
 use sim_core::sampling::Noise;
 use sim_core::{FitParams, PointSet, Progress};
@@ -161,8 +161,9 @@ pub struct FitReport {
     pub mesh_triangles: Option<usize>,
     /// Meshing wall time, seconds (also when only the surface error needed the mesh).
     pub mesh_s: Option<f64>,
-    /// Field evaluations meshing made (nodes of the blocks near the points), and the node
-    /// count of the whole box at that resolution (what dense meshing would evaluate).
+    /// Grid-node field evaluations meshing made (probes of the blocks near the points, nodes of
+    /// those that can hold the surface), and the node count of the whole box at that
+    /// resolution (what dense meshing would evaluate).
     pub mesh_evaluations: Option<[usize; 2]>,
     /// Grid cells along the longest side of the points' box.
     pub resolution: usize,
@@ -362,10 +363,9 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         let cells = args.resolution.clamp(8, 1024) as f64;
         let padded = ((hi - lo + 2.0 * pad).max_element() / (hi - lo).max_element() * cells).ceil();
         let box_ = (lo - pad, hi + pad);
-        let mesh = extract_zero_set(&rec.field, box_, padded as usize);
+        let (mesh, stats) = extract_zero_set_with_stats(&rec.field, box_, padded as usize);
         mesh_s = Some(t2.elapsed().as_secs_f64());
-        let (sparse, dense) = sim_core::mesh::evaluations(&rec.field, box_, padded as usize);
-        mesh_evaluations = Some([sparse, dense]);
+        mesh_evaluations = Some([stats.evaluations, stats.box_nodes]);
         mesh_triangles = Some(mesh.triangles.len());
         if let Some(out) = &args.mesh {
             write_mesh(out, &mesh)?;

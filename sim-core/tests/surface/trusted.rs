@@ -9,7 +9,9 @@ use sim_core::FitParams;
 use sim_core::accuracy::{MeshReference, Reference, mesh_error};
 use sim_core::grid::GridSpec;
 use sim_core::io::{self, Format};
-use sim_core::mesh::{TriMesh, extract_zero_set, extract_zero_set_dense};
+use sim_core::mesh::{
+    TriMesh, extract_zero_set, extract_zero_set_dense, extract_zero_set_with_stats,
+};
 use sim_core::reconstruct::{NormalPolicy, Reconstruction};
 use sim_core::sampling::Shape;
 use sim_core::sparse::{sample_trusted, sample_trusted_dense};
@@ -265,6 +267,9 @@ fn a_csg_crease_and_a_sharp_box_leave_no_debris() {
     }
 }
 
+/// The narrow band skips blocks beyond the trust balls and, inside them, octree boxes whose
+/// probes show no sign change within a slope of 2; the dense path evaluates every node. Equal
+/// meshes mean neither skip lost a crossing, on smooth, thin, creased and scanned data.
 #[test]
 fn narrow_band_meshing_and_sampling_equal_the_dense_ones() {
     let shapes = [
@@ -282,12 +287,22 @@ fn narrow_band_meshing_and_sampling_equal_the_dense_ones() {
             offset: 0.04,
         },
     ];
-    for shape in shapes {
-        let points = shape.sample(3000, 5);
+    let cases = shapes
+        .iter()
+        .map(|shape| (format!("{shape:?}"), shape.sample(3000, 5)))
+        .chain([("bunny".to_string(), bunny().0)]);
+    for (shape, points) in cases {
         let rec = fit(&points, &FitParams::default(), NormalPolicy::Keep);
         let bounds = padded(&rec, &points.positions);
-        let sparse = extract_zero_set(&rec.field, bounds, 48);
-        let dense = extract_zero_set_dense(&rec.field, bounds, 48);
+        let (sparse, stats) = extract_zero_set_with_stats(&rec.field, bounds, 128);
+        let dense = extract_zero_set_dense(&rec.field, bounds, 128);
+        eprintln!("{shape}: {stats:?}");
+        // It is narrow: under half the box's nodes (measured 19–40 % here, 3,000 points at
+        // resolution 128; the share falls as the data gets denser or the grid finer).
+        assert!(
+            stats.evaluations * 2 < stats.box_nodes,
+            "{shape}: {stats:?}"
+        );
         assert!(sparse.triangles.len() > 1000, "{shape:?}");
         assert!(
             sparse == dense,
@@ -299,6 +314,6 @@ fn narrow_band_meshing_and_sampling_equal_the_dense_ones() {
         let spec = GridSpec::covering(lo, lo + (hi - lo) * 0.6, (hi - lo).max_element() / 40.0);
         let a = sample_trusted(&rec.field, spec);
         let b = sample_trusted_dense(&rec.field, spec);
-        assert_eq!(a.values(), b.values(), "{shape:?}: region sampling differs");
+        assert_eq!(a.values(), b.values(), "{shape}: region sampling differs");
     }
 }
