@@ -538,7 +538,8 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
             Box::new(MeshReference::new(m).context("reference mesh has no triangles")?)
         }
     };
-    let e = mesh_error(&mesh, reference.as_ref(), args.samples, args.seed).with_context(|| {
+    let seed = args.seed ^ ERROR_SEED_SALT; // as `fit` salts its own: same seed, same samples
+    let e = mesh_error(&mesh, reference.as_ref(), args.samples, seed).with_context(|| {
         format!(
             "{}: the mesh has no triangle of positive area",
             args.mesh.display()

@@ -98,3 +98,74 @@ fn bad_noise_is_an_error_naming_the_flag() {
         assert!(msg.contains("--noise"), "{v}: {msg}");
     }
 }
+
+#[derive(Debug, Parser)]
+struct MeshErrorCli {
+    #[command(flatten)]
+    args: MeshErrorArgs,
+}
+
+fn mesh_error_args(line: &[&str]) -> MeshErrorArgs {
+    MeshErrorCli::parse_from(std::iter::once("mesh-error").chain(line.iter().copied())).args
+}
+
+#[test]
+fn mesh_error_measures_fits_mesh_like_fit_does_and_names_bad_input() {
+    let dir = std::env::temp_dir().join(format!("ws-mesh-error-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("sphere.ply");
+    let fit = run(&args(&[
+        "gen:sphere:1:3000",
+        "--quiet",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "48",
+        "--surface-samples",
+        "20000",
+    ]))
+    .unwrap();
+    let m = mesh.to_str().unwrap();
+    let r = run_mesh_error(&mesh_error_args(&[
+        m,
+        "--reference",
+        "sphere:1",
+        "--samples",
+        "20000",
+    ]))
+    .unwrap();
+    // The same metric and samples as fit's `surface` (the file stores f32 vertices).
+    let surface = fit.surface.unwrap();
+    assert!(
+        (r.to_reference.max - surface.to_reference.max).abs() < 1e-6,
+        "{r:?} {surface:?}"
+    );
+    assert!(
+        (r.coverage.rms - surface.coverage.rms).abs() < 1e-6,
+        "{r:?} {surface:?}"
+    );
+    assert!(r.to_reference.max < 1e-3 && r.coverage.max < 1e-2, "{r:?}");
+    assert_eq!(Some(r.triangles), fit.mesh_triangles);
+    // Against the wrong radius both directions see the 10 % offset.
+    let off = run_mesh_error(&mesh_error_args(&[m, "--reference", "sphere:1.1"])).unwrap();
+    assert!(
+        off.to_reference.rms > 0.08 && off.coverage.rms > 0.08,
+        "{off:?}"
+    );
+    for (line, needle) in [
+        (
+            vec![m, "--reference", "sphere:1", "--samples", "0"],
+            "--samples",
+        ),
+        (vec![m, "--reference", "none"], "needs a reference"),
+        (vec![m, "--reference", "cube:1"], "unknown shape"),
+        (
+            vec!["missing.ply", "--reference", "sphere:1"],
+            "missing.ply",
+        ),
+    ] {
+        let msg = format!("{:#}", run_mesh_error(&mesh_error_args(&line)).unwrap_err());
+        assert!(msg.contains(needle), "{line:?}: {msg}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

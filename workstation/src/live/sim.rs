@@ -270,10 +270,22 @@ impl SimCore {
         picked - normal * d
     }
 
-    /// The surface point nearest `x` on the region's object, with its outward normal.
+    /// The surface point nearest `x` on the region's object, with its outward normal. A
+    /// projection that lands on an untrusted piece of the zero set (away from the points) is
+    /// not the surface: the nearest point of the object is taken instead (once per press, so
+    /// a scan is fine).
     fn nearest_surface(&self, x: DVec3) -> (DVec3, DVec3) {
         let o = &self.scene.objects()[self.region_object];
-        let p = o.field.project_to_zero_set(x).point;
+        let pr = o.field.project_to_zero_set(x);
+        let p = if pr.trusted {
+            pr.point
+        } else {
+            o.positions
+                .iter()
+                .copied()
+                .min_by(|a, b| a.distance_squared(x).total_cmp(&b.distance_squared(x)))
+                .unwrap_or(pr.point)
+        };
         let n = o
             .field
             .value_and_gradient(p)
@@ -407,8 +419,10 @@ impl SimCore {
                     if s.tool == ToolKind::RopeCurve && rope.path.len() < MAX_CURVE_POINTS {
                         // The tip's path projected onto the rest surface becomes the rope.
                         let o = &self.scene.objects()[self.region_object];
-                        let c = o.field.project_to_zero_set(e.position).point;
-                        if c.is_finite()
+                        let pr = o.field.project_to_zero_set(e.position);
+                        let c = pr.point;
+                        if pr.trusted
+                            && c.is_finite()
                             && rope
                                 .path
                                 .last()
