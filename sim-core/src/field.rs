@@ -381,27 +381,47 @@ impl GlobalField {
         hit
     }
 
-    /// Whether the field is trusted at `x`, the test every consumer of the zero set applies:
-    /// some point lies within `trust ×` its support radius of `x` ([`FitParams::trust`]).
+    /// Whether the field is trusted at `x`, the test every consumer of the zero set applies
+    /// (meshing, projection, region grids, CSG classification). Three conditions:
+    /// - some point *vouches* for `x`: it lies within `trust ×` that point's support radius
+    ///   ([`FitParams::trust`]);
+    /// - the blending weight there, `Σ φᵢ(x)`, is at least [`FitParams::trust_weight`];
+    /// - the vouching points do not disown it: less than three quarters of their weight comes
+    ///   from points with `x` more than [`FitParams::trust_plane`] (0.3) support radii off
+    ///   their tangent plane.
     ///
     /// Nearer the points the blend interpolates them; farther out the local fits extrapolate,
-    /// and a zero set there (a sheet where a fit curls past the end of its data, a blob above
-    /// a sparse ridge) is not evidence of a surface. Every point of a sampled surface lies
-    /// within about half the sample spacing of a sample, a fraction of a support radius (the
-    /// k-th neighbour's distance), so the test cuts no holes where the data is dense enough to
-    /// fit: 0.7 keeps randomly sampled shapes whole (0.5 left gaps in a 20k-point torus) and
-    /// still removes the bunny's ear sheet (it returns at 0.9). Allocation-free.
+    /// and a zero set there is not evidence of a surface. Each condition removes one kind of
+    /// spurious piece, measured on the benchmark shapes (docs/BENCHMARKS.md): the distance, the
+    /// sheets where fits curl past the end of their data (the bunny's ears; 0.7 keeps randomly
+    /// sampled shapes whole, 0.5 left gaps in a 20k-point torus, the sheet returns at 0.9);
+    /// the weight, the fringe a few rim fields reach alone (a CSG rim's fits continuing over
+    /// the carved-away void: three fields, `Σ φ` = 0.17 against ≈ 5 on a surface); the planes,
+    /// fins that one-sided fits beside a crease bend into the void (3 mm off the planes of
+    /// every point near them). A sampled surface passes all three: it lies within half a
+    /// spacing of a sample and near its neighbours' planes. Allocation-free.
     pub fn is_trusted(&self, x: DVec3) -> bool {
         if !x.is_finite() {
             return false;
         }
         let d = &*self.inner;
         let tau2 = d.params.trust * d.params.trust;
-        let mut trusted = false;
-        d.grid.for_each_containing(x, |i, _, dist2| {
-            trusted |= dist2 <= tau2 * d.support[i] * d.support[i];
+        let (mut weight_sum, mut vouching, mut off_plane) = (0.0, 0.0, 0.0);
+        d.grid.for_each_containing(x, |i, rel, dist2| {
+            let r2 = d.support[i] * d.support[i];
+            let phi = weight((dist2 / r2).sqrt()).0;
+            weight_sum += phi;
+            if dist2 <= tau2 * r2 {
+                // A point vouches for x; it disowns x lying far off its tangent plane.
+                vouching += phi + f64::MIN_POSITIVE;
+                if rel.dot(d.normals[i]).abs() > d.params.trust_plane * d.support[i] {
+                    off_plane += phi + f64::MIN_POSITIVE;
+                }
+            }
         });
-        trusted
+        vouching > 0.0
+            && weight_sum >= d.params.trust_weight
+            && off_plane < OFF_PLANE_SHARE * vouching
     }
 
     /// The value a sampled grid and an inside test should use: `f(x)` where it is trusted or
@@ -582,6 +602,9 @@ impl Supports for SupportList {
     }
 }
 
+/// The zero set is untrusted where points holding this share of the vouching weight disown it.
+const OFF_PLANE_SHARE: f64 = 0.75;
+
 /// Beyond this coordinate magnitude the nearest-point search runs from a point pulled in along
 /// the query's ray (squared distances overflow past ~1e154).
 const FAR_QUERY: f64 = 1e150;
@@ -697,8 +720,10 @@ fn validate(
         p.normal_agreement.is_finite(),
         p.outlier_ratio > 1.0,
         p.trust > 0.0 && p.trust.is_finite(),
+        p.trust_weight >= 0.0 && p.trust_weight.is_finite(),
+        p.trust_plane > 0.0,
     ];
-    const WHAT: [&str; 8] = [
+    const WHAT: [&str; 10] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -707,6 +732,8 @@ fn validate(
         "normal_agreement must be finite",
         "outlier_ratio must exceed 1",
         "trust must be positive and finite",
+        "trust_weight must be finite and ≥ 0",
+        "trust_plane must be positive (infinite: no plane test)",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),

@@ -43,10 +43,29 @@ pub struct FitParams {
     /// it (see [`crate::field::GlobalField::is_trusted`]).
     #[serde(default = "default_trust")]
     pub trust: f64,
+    /// The least total blending weight `Σ φᵢ(x)` at which the zero set is trusted. A surface
+    /// point is covered by some twenty supports (`Σ φ` ≈ 5 at k = 20, ≈ 2.5 on an open scan's
+    /// rim); the fringe a few rim fields reach alone (a fit continuing past a crease over the
+    /// void) has a fraction of one.
+    #[serde(default = "default_trust_weight")]
+    pub trust_weight: f64,
+    /// A point disowns a zero-set point lying more than this many of its support radii off
+    /// its tangent plane; where points holding three quarters of the vouching weight disown
+    /// it, the zero set is not trusted (fins beside a crease). Infinite: no such test.
+    #[serde(default = "default_trust_plane")]
+    pub trust_plane: f64,
 }
 
 fn default_trust() -> f64 {
     FitParams::default().trust
+}
+
+fn default_trust_weight() -> f64 {
+    FitParams::default().trust_weight
+}
+
+fn default_trust_plane() -> f64 {
+    FitParams::default().trust_plane
 }
 
 impl Default for FitParams {
@@ -61,6 +80,8 @@ impl Default for FitParams {
             normal_agreement: -0.5,
             outlier_ratio: 4.0,
             trust: 0.7,
+            trust_weight: 1.0,
+            trust_plane: 0.3,
         }
     }
 }

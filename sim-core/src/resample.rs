@@ -143,8 +143,11 @@ pub fn upsample_at(
 }
 
 /// Merge points closer than `min_distance`: greedily in index order, each surviving point
-/// absorbs the not-yet-merged points within `min_distance`; the cluster's mean position is
-/// projected onto `field`'s zero set, normals and colours are averaged.
+/// absorbs the not-yet-merged points within `min_distance` whose normal agrees with its own
+/// (within [`MERGE_MAX_ANGLE_COS`]); the cluster's mean position is projected onto `field`'s
+/// zero set, normals and colours are averaged. Points on the two sides of a crease are never
+/// merged: one point with their bisecting normal would fit a plane at 45° across the crease
+/// and stand out of it as a fin (the ragged rim of a CSG difference).
 pub fn downsample(points: &PointSet, field: &GlobalField, min_distance: f64) -> PointSet {
     let pos = &points.positions;
     if pos.is_empty() || min_distance.is_nan() || min_distance <= 0.0 {
@@ -166,6 +169,12 @@ pub fn downsample(points: &PointSet, field: &GlobalField, min_distance: f64) -> 
             .into_iter()
             .map(|(j, _)| j)
             .filter(|&j| !taken[j])
+            .filter(|&j| {
+                points
+                    .normals
+                    .as_ref()
+                    .is_none_or(|n| n[j].dot(n[i]) >= MERGE_MAX_ANGLE_COS)
+            })
             .collect();
         cluster.sort_unstable();
         if !cluster.contains(&i) {
@@ -208,6 +217,9 @@ pub fn downsample(points: &PointSet, field: &GlobalField, min_distance: f64) -> 
     }
     out
 }
+
+/// Points [`downsample`] merges have normals within this cosine (about 25°).
+pub const MERGE_MAX_ANGLE_COS: f64 = 0.9;
 
 /// Median distance from each point to its nearest neighbour: the set's spacing.
 pub fn spacing(points: &[DVec3]) -> f64 {

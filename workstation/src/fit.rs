@@ -76,6 +76,14 @@ pub struct FitArgs {
     /// from every point is where local fits extrapolate, and is not meshed or touched.
     #[arg(long, default_value_t = FitParams::default().trust)]
     pub trust: f64,
+    /// Least total blending weight where the zero set is trusted (≈ 5 on a sampled surface;
+    /// 0 turns the weight test off).
+    #[arg(long, default_value_t = FitParams::default().trust_weight)]
+    pub trust_weight: f64,
+    /// Support radii off a point's tangent plane beyond which it disowns the zero set (fins
+    /// beside creases; inf turns the test off).
+    #[arg(long, default_value_t = FitParams::default().trust_plane)]
+    pub trust_plane: f64,
     /// What to do with given normals: keep, reorient (fix flipped ones) or estimate (ignore).
     #[arg(long, value_enum, default_value_t = NormalsArg::Keep)]
     pub normals: NormalsArg,
@@ -311,6 +319,8 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         weight_width: args.weight_width,
         regularization: args.regularization,
         trust: args.trust,
+        trust_weight: args.trust_weight,
+        trust_plane: args.trust_plane,
         ..FitParams::default()
     };
     let policy = match args.normals {

@@ -227,4 +227,18 @@ fn upsampling_fills_a_hole_and_downsampling_merges_duplicates() {
     for p in &merged.positions {
         assert!((p.length() - R).abs() < 5e-4);
     }
+    // Duplicates whose normal is turned 90° (the other side of a crease) are never merged:
+    // one point with the bisecting normal would stand out of the crease as a fin.
+    let mut creased = ps.clone();
+    let normals = creased.normals.as_mut().unwrap();
+    for n in &mut normals[o.positions.len()..] {
+        *n = n.any_orthonormal_vector();
+    }
+    let kept = downsample(&creased, &o.field, 0.25 * h);
+    assert!(
+        kept.positions.len() >= 2 * alone.positions.len() - 10,
+        "{} points kept of {}",
+        kept.positions.len(),
+        creased.positions.len()
+    );
 }
