@@ -232,15 +232,10 @@ impl GlobalField {
         self.value_and_gradient_over::<true>(x, &self.inner.grid)
     }
 
-    /// [`GlobalField::value_and_gradient`] with the supports taken from a list gathered once
-    /// for a box (see [`GlobalField::gather_supports`]): equal to it for every `x` in that box,
-    /// without the per-query index lookups. Block-wise grid sampling uses this.
-    pub fn value_and_gradient_near(&self, x: DVec3, supports: &SupportList) -> (f64, DVec3) {
-        self.value_and_gradient_over::<true>(x, supports)
-    }
-
-    /// `f(x)` alone from a gathered list (see [`GlobalField::value_and_gradient_near`]): the
-    /// same value, bit for bit, without the gradient's cost. Grid sampling uses this.
+    /// `f(x)` with the supports taken from a list gathered once for a box (see
+    /// [`GlobalField::gather_supports`]): equal, bit for bit, to [`GlobalField::value`] for
+    /// every `x` in that box, without the per-query index lookups or the gradient's cost.
+    /// Block-wise grid sampling uses this.
     pub fn value_near(&self, x: DVec3, supports: &SupportList) -> f64 {
         self.value_and_gradient_over::<false>(x, supports).0
     }
@@ -434,7 +429,7 @@ impl GlobalField {
     }
 
     /// [`GlobalField::trusted_value`] given `f = f(x)` already evaluated (e.g. by
-    /// [`GlobalField::value_and_gradient_near`]).
+    /// [`GlobalField::value_near`]).
     pub fn trusted_value_from(&self, x: DVec3, f: f64) -> f64 {
         if !x.is_finite() || self.is_trusted(x) {
             return f;
@@ -443,13 +438,8 @@ impl GlobalField {
         if (nsd < 0.0) == (f < 0.0) { f } else { nsd }
     }
 
-    /// Whether `x` is inside the solid by [`GlobalField::trusted_value`] (`< 0`).
-    pub fn is_inside(&self, x: DVec3) -> bool {
-        self.trusted_value(x) < 0.0
-    }
-
     /// Collect into `out` every support that reaches into the box `[lo, hi]` (for
-    /// [`GlobalField::value_and_gradient_near`] at points of that box).
+    /// [`GlobalField::value_near`] at points of that box).
     pub fn gather_supports(&self, lo: DVec3, hi: DVec3, out: &mut SupportList) {
         self.inner.grid.gather_box(lo, hi, &mut out.items);
     }
@@ -555,24 +545,12 @@ impl SupportList {
         Self::default()
     }
 
-    /// Number of supports gathered.
-    pub fn len(&self) -> usize {
-        self.items.len()
-    }
-
-    /// Whether no support reaches the box.
-    pub fn is_empty(&self) -> bool {
-        self.items.is_empty()
-    }
-
     /// Replace `out` by the supports of this list that reach into the smaller box `[lo, hi]`,
     /// in the same order (so blends over either list give the same bits inside that box).
     pub fn narrow_to(&self, lo: DVec3, hi: DVec3, out: &mut SupportList) {
         out.items.clear();
-        out.items.extend(self.items.iter().filter(|item| {
-            let gap = (lo - item.center).max(item.center - hi).max(DVec3::ZERO);
-            gap.length_squared() < item.radius2
-        }));
+        out.items
+            .extend(self.items.iter().filter(|item| item.reaches_box(lo, hi)));
     }
 }
 

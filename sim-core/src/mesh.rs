@@ -193,9 +193,8 @@ fn extract_blocks(
                             continue;
                         }
                         let pr = project_to_zero_set_with(field, guess, &opts);
-                        let ok = pr.converged
-                            && (pr.point - guess).length() < 2.0 * h
-                            && field.is_trusted(pr.point);
+                        let ok =
+                            pr.converged && (pr.point - guess).length() < 2.0 * h && pr.trusted;
                         let local = ((k * BLOCK + j) * BLOCK + i) as u32;
                         vertices.push((local, if ok { pr.point } else { guess }));
                     }

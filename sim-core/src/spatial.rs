@@ -37,6 +37,15 @@ pub(crate) struct SupportItem {
     pub(crate) id: u32,
 }
 
+impl SupportItem {
+    /// Whether the support's ball reaches into the box `[lo, hi]`.
+    #[inline]
+    pub(crate) fn reaches_box(&self, lo: DVec3, hi: DVec3) -> bool {
+        let gap = (lo - self.center).max(self.center - hi).max(DVec3::ZERO);
+        gap.length_squared() < self.radius2
+    }
+}
+
 impl SupportGrid {
     /// Index supports `i` with `radius[i] > 0` (others are never reported). `base` > 0 is the
     /// finest cell edge; choose about twice the typical radius.
@@ -164,12 +173,8 @@ impl SupportGrid {
                         let Some(&(s, e)) = level.cells.get(&key([x, y, z])) else {
                             continue;
                         };
-                        for item in &level.items[s as usize..e as usize] {
-                            let gap = (lo - item.center).max(item.center - hi).max(DVec3::ZERO);
-                            if gap.length_squared() < item.radius2 {
-                                out.push(*item);
-                            }
-                        }
+                        let items = &level.items[s as usize..e as usize];
+                        out.extend(items.iter().filter(|item| item.reaches_box(lo, hi)));
                     }
                 }
             }

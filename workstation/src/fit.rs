@@ -240,6 +240,19 @@ fn read_file(path: &Path) -> anyhow::Result<Loaded> {
     io::read(BufReader::new(file), format).with_context(|| format!("reading {}", path.display()))
 }
 
+/// A reference mesh file, indexed for distance queries.
+fn read_mesh_reference(path: &Path) -> anyhow::Result<MeshReference> {
+    let mesh = read_file(path)?
+        .mesh
+        .with_context(|| format!("{} has no faces", path.display()))?;
+    MeshReference::new(mesh).context("reference mesh has no triangles")
+}
+
+/// One direction of a two-sided error, as the text reports print it.
+fn distances_text(x: &Distances) -> String {
+    format!("RMS {:.3e}, p99 {:.3e}, max {:.3e}", x.rms, x.p99, x.max)
+}
+
 fn write_mesh(path: &Path, mesh: &TriMesh) -> anyhow::Result<()> {
     let format = format_of(path)?;
     if !matches!(format, Format::Ply | Format::Obj | Format::Stl) {
@@ -304,13 +317,10 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             own_reference.map(|m| ("input mesh".to_string(), Box::new(m) as Box<dyn Reference>))
         }
         ReferenceSpec::Shape(shape) => Some((format!("{shape:?}"), Box::new(shape))),
-        ReferenceSpec::Mesh(path) => {
-            let mesh = read_file(&path)?
-                .mesh
-                .with_context(|| format!("{} has no faces", path.display()))?;
-            let m = MeshReference::new(mesh).context("reference mesh has no triangles")?;
-            Some((format!("mesh {}", path.display()), Box::new(m)))
-        }
+        ReferenceSpec::Mesh(path) => Some((
+            format!("mesh {}", path.display()),
+            Box::new(read_mesh_reference(&path)?),
+        )),
     };
     let params = FitParams {
         k: args.k,
@@ -465,7 +475,7 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
         );
     }
     if let Some(e) = &r.surface {
-        let d = |x: &Distances| format!("RMS {:.3e}, p99 {:.3e}, max {:.3e}", x.rms, x.p99, x.max);
+        let d = distances_text;
         println!(
             "surface      mesh → reference   {} ({} samples each way, relative to the reference size)",
             d(&e.to_reference),
@@ -541,12 +551,7 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
     let reference: Box<dyn Reference> = match parse_reference(&args.reference)? {
         ReferenceSpec::None => bail!("--reference none: mesh-error needs a reference"),
         ReferenceSpec::Shape(shape) => Box::new(shape),
-        ReferenceSpec::Mesh(path) => {
-            let m = read_file(&path)?
-                .mesh
-                .with_context(|| format!("{} has no faces", path.display()))?;
-            Box::new(MeshReference::new(m).context("reference mesh has no triangles")?)
-        }
+        ReferenceSpec::Mesh(path) => Box::new(read_mesh_reference(&path)?),
     };
     let seed = args.seed ^ ERROR_SEED_SALT; // as `fit` salts its own: same seed, same samples
     let e = mesh_error(&mesh, reference.as_ref(), args.samples, seed).with_context(|| {
@@ -573,7 +578,7 @@ pub fn print_mesh_error(r: &MeshErrorReport, json: bool) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string(r)?);
         return Ok(());
     }
-    let d = |x: &Distances| format!("RMS {:.3e}, p99 {:.3e}, max {:.3e}", x.rms, x.p99, x.max);
+    let d = distances_text;
     println!("mesh         {} ({} triangles)", r.mesh, r.triangles);
     println!(
         "reference    {} (size {:.6e} m)",
