@@ -9,6 +9,7 @@ pub mod bench_sim;
 pub mod fit;
 pub mod live;
 pub mod logging;
+pub mod plot;
 pub mod scenes;
 pub mod sculpt;
 pub mod status;
