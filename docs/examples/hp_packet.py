@@ -10,7 +10,7 @@ import struct
 import sys
 
 HEADER = struct.Struct("<2sBBHIIQ")  # magic, version, kind, flags, session, sequence, timestamp_ns
-CURSOR = struct.Struct("<3f4f3f3fIH")  # position, orientation xyzw, velocity, output_force, tick, buttons
+CURSOR = struct.Struct("<3f4f3f3fIHIQ")  # position, orientation xyzw, velocity, output_force, tick, buttons, ack seq, ack arrival
 FORCE = struct.Struct("<3f3fIQ3f3fffffI")  # force, torque, answers seq/ts, point, normal, k, b, mu, radius, lifetime
 
 
@@ -18,7 +18,7 @@ def decode(data: bytes) -> dict:
     magic, version, kind, flags, session, sequence, timestamp_ns = HEADER.unpack_from(data)
     if magic != b"HP":
         raise ValueError(f"bad magic {magic!r}")
-    if version != 2:
+    if version != 3:
         raise ValueError(f"unsupported version {version}")
     out = {"kind": kind, "flags": flags, "session": session, "sequence": sequence,
            "timestamp_ns": timestamp_ns}
@@ -28,7 +28,8 @@ def decode(data: bytes) -> dict:
             raise ValueError(f"cursor body is {len(body)} bytes, expected {CURSOR.size}")
         v = CURSOR.unpack(body)
         out.update(position=v[0:3], orientation=v[3:7], velocity=v[7:10], output_force=v[10:13],
-                   servo_tick=v[13], buttons=v[14], engaged=bool(flags & 1), estop=bool(flags & 2))
+                   servo_tick=v[13], buttons=v[14], engaged=bool(flags & 1), estop=bool(flags & 2),
+                   ack={"sequence": v[15], "arrival_ns": v[16]} if flags & 4 else None)
     elif kind == 2:
         if len(body) != FORCE.size:
             raise ValueError(f"force body is {len(body)} bytes, expected {FORCE.size}")

@@ -56,6 +56,9 @@ pub struct ClientConfig {
     pub timeout: Duration,
     /// QUIC idle timeout (keep-alives at a quarter of it).
     pub idle_timeout: Duration,
+    /// The workstation's client certificate and key, which the server must list as
+    /// authorized; without one the server answers `Error { Unauthenticated }`.
+    pub identity: Option<tls::Identity>,
 }
 
 impl ClientConfig {
@@ -73,7 +76,14 @@ impl ClientConfig {
             requested_rate_hz: 1000,
             timeout: Duration::from_secs(5),
             idle_timeout: Duration::from_secs(2),
+            identity: None,
         }
+    }
+
+    /// The same, presenting `identity` as the client certificate.
+    pub fn with_identity(mut self, identity: tls::Identity) -> Self {
+        self.identity = Some(identity);
+        self
     }
 }
 
@@ -243,6 +253,11 @@ impl HotPath {
         self.tx.clock
     }
 
+    /// See [`HotSender::last_sent`].
+    pub fn last_sent(&self) -> Option<(u32, u64)> {
+        self.tx.last_sent()
+    }
+
     /// The sequence number the next force command will carry.
     pub fn next_sequence(&self) -> u32 {
         self.tx.outbound.next_sequence()
@@ -321,6 +336,7 @@ pub struct HotSender {
     outbound: Outbound,
     clock: MonoClock,
     buf: [u8; MAX_PACKET_BYTES],
+    last_sent: Option<(u32, u64)>,
 }
 
 impl std::fmt::Debug for HotSender {
@@ -336,9 +352,9 @@ impl HotSender {
     /// server's watchdog covers a gap). [`ClientError::Closed`] when a QUIC connection is gone
     /// (UDP has no connection: a vanished server shows as silence on the receiving side).
     pub fn send_force(&mut self, cmd: &ForceCommand) -> Result<(), ClientError> {
-        let len = self
-            .outbound
-            .encode(self.clock.now_ns(), Body::Force(*cmd), &mut self.buf);
+        let (sequence, now) = (self.outbound.next_sequence(), self.clock.now_ns());
+        let len = self.outbound.encode(now, Body::Force(*cmd), &mut self.buf);
+        self.last_sent = Some((sequence, now));
         match self.send_raw(&self.buf[..len]) {
             Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
             other => other,
@@ -363,6 +379,13 @@ impl HotSender {
     pub fn clock(&self) -> MonoClock {
         self.clock
     }
+
+    /// Header `sequence` and `timestamp_ns` of the last command [`HotSender::send_force`]
+    /// encoded (sent, or dropped by a full socket buffer): match them with the cursors'
+    /// [`protocol::ForceAck`] to time round trips.
+    pub fn last_sent(&self) -> Option<(u32, u64)> {
+        self.last_sent
+    }
 }
 
 /// A force command with no model and zero force (the UDP stream opener).
@@ -385,7 +408,7 @@ impl Client {
     }
 
     async fn connect_inner(cfg: &ClientConfig) -> Result<Client, ClientError> {
-        let tls_cfg = tls::client_config(cfg.pinned_cert.clone())?;
+        let tls_cfg = tls::client_config(cfg.pinned_cert.clone(), cfg.identity.as_ref())?;
         let (rd, wr, conn): (Reader, Writer, Option<(quinn::Connection, quinn::Endpoint)>) =
             match cfg.transport {
                 TransportKind::Udp => {
@@ -483,6 +506,7 @@ impl Client {
                 outbound: Outbound::new(welcome.session_id, key.clone()),
                 clock: MonoClock::new(),
                 buf: [0; MAX_PACKET_BYTES],
+                last_sent: None,
             },
             key,
             streaming: false,

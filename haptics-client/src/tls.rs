@@ -5,6 +5,11 @@
 //! the server proves possession of its key with a TLS 1.3 signature (checked with ring's
 //! algorithms). No CA, no host-name check: the pin is the identity. TLS 1.3 only; ALPN
 //! `haptics/1`.
+//!
+//! The other way round, the workstation presents its own [`Identity`], a self-signed *client*
+//! certificate that the server pins in its authorized list: only a listed workstation gets a
+//! session. [`identity_beside`] finds the pair a server created next to its own certificate,
+//! so a workstation on the same machine needs no extra step.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -12,7 +17,7 @@ use std::sync::Arc;
 use rustls::client::danger::{HandshakeSignatureValid, ServerCertVerified, ServerCertVerifier};
 use rustls::crypto::CryptoProvider;
 use rustls::pki_types::pem::PemObject;
-use rustls::pki_types::{CertificateDer, ServerName, UnixTime};
+use rustls::pki_types::{CertificateDer, PrivateKeyDer, ServerName, UnixTime};
 use rustls::{DigitallySignedStruct, SignatureScheme};
 
 /// ALPN protocol id of both transports.
@@ -40,6 +45,48 @@ pub enum TlsError {
     Config(String),
 }
 
+/// File names of the workstation's identity, next to the server's `cert.pem` when the server
+/// created them (certificate, private key).
+pub const CLIENT_FILES: (&str, &str) = ("client.pem", "client.key");
+
+/// A certificate and its private key (the server's, or a workstation's client identity).
+#[derive(Debug)]
+pub struct Identity {
+    /// The certificate, DER.
+    pub cert: CertificateDer<'static>,
+    /// The private key, DER.
+    pub key: PrivateKeyDer<'static>,
+}
+
+impl Clone for Identity {
+    fn clone(&self) -> Self {
+        Self {
+            cert: self.cert.clone(),
+            key: self.key.clone_key(),
+        }
+    }
+}
+
+/// Read a certificate and its PEM private key.
+pub fn read_identity(cert: &Path, key: &Path) -> Result<Identity, TlsError> {
+    let key_der = PrivateKeyDer::from_pem_file(key).map_err(|e| TlsError::File {
+        path: key.to_owned(),
+        reason: format!("not a PEM private key: {e}"),
+    })?;
+    Ok(Identity {
+        cert: read_cert(cert)?,
+        key: key_der,
+    })
+}
+
+/// The client identity files next to a server certificate (`client.pem`, `client.key` in its
+/// folder), if both exist: where a server on this machine wrote them on first start.
+pub fn identity_beside(server_cert: &Path) -> Option<(PathBuf, PathBuf)> {
+    let dir = server_cert.parent()?;
+    let (c, k) = (dir.join(CLIENT_FILES.0), dir.join(CLIENT_FILES.1));
+    (c.is_file() && k.is_file()).then_some((c, k))
+}
+
 /// Read a PEM certificate (the first one in the file).
 pub fn read_cert(path: &Path) -> Result<CertificateDer<'static>, TlsError> {
     CertificateDer::from_pem_file(path).map_err(|e| TlsError::File {
@@ -53,19 +100,29 @@ pub fn provider() -> Arc<CryptoProvider> {
     Arc::new(rustls::crypto::ring::default_provider())
 }
 
-/// TLS 1.3 client configuration that accepts exactly the `pinned` server certificate.
-pub fn client_config(pinned: CertificateDer<'static>) -> Result<rustls::ClientConfig, TlsError> {
+/// TLS 1.3 client configuration that accepts exactly the `pinned` server certificate and
+/// presents `identity` as the client certificate (without one the server refuses the session
+/// with `Error { Unauthenticated }`).
+pub fn client_config(
+    pinned: CertificateDer<'static>,
+    identity: Option<&Identity>,
+) -> Result<rustls::ClientConfig, TlsError> {
     let provider = provider();
     let verifier = Arc::new(PinnedCert {
         pinned,
         provider: Arc::clone(&provider),
     });
-    let mut cfg = rustls::ClientConfig::builder_with_provider(provider)
+    let builder = rustls::ClientConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
         .map_err(|e| TlsError::Config(e.to_string()))?
         .dangerous()
-        .with_custom_certificate_verifier(verifier)
-        .with_no_client_auth();
+        .with_custom_certificate_verifier(verifier);
+    let mut cfg = match identity {
+        Some(id) => builder
+            .with_client_auth_cert(vec![id.cert.clone()], id.key.clone_key())
+            .map_err(|e| TlsError::Config(format!("client certificate: {e}")))?,
+        None => builder.with_no_client_auth(),
+    };
     cfg.alpn_protocols = vec![ALPN.to_vec()];
     Ok(cfg)
 }

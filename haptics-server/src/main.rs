@@ -72,15 +72,26 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Write a self-signed certificate and key for the server; the workstation pins the
-    /// certificate.
+    /// Write a self-signed certificate and key for the server (the workstation pins the
+    /// certificate), or with --client a workstation's client identity (the server lists the
+    /// certificate in its authorized clients).
+    ///
+    /// Two machines: run `gen-cert` on the haptics PC and copy its cert.pem to the workstation;
+    /// run `gen-cert --client --out DIR` on the workstation and append DIR/client.pem to the
+    /// server's authorized_clients.pem (or pass --authorize FILE where both are on one machine).
     GenCert {
-        /// Directory for cert.pem and key.pem [default: $XDG_CONFIG_HOME/haptics-server].
+        /// Directory for the files [default: $XDG_CONFIG_HOME/haptics-server].
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
         /// Overwrite existing files.
         #[arg(long)]
         force: bool,
+        /// Write a workstation's client identity (client.pem, client.key) instead.
+        #[arg(long)]
+        client: bool,
+        /// With --client: also append client.pem to this authorized-clients file.
+        #[arg(long, value_name = "FILE", requires = "client")]
+        authorize: Option<PathBuf>,
     },
     /// List attached HID devices and whether the OpenHaptics library can be loaded.
     Devices,
@@ -169,7 +180,12 @@ fn load_config(cli: &Cli) -> anyhow::Result<ServerConfig> {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match &cli.command {
-        Some(Command::GenCert { out, force }) => return gen_cert(out.clone(), *force),
+        Some(Command::GenCert {
+            out,
+            force,
+            client,
+            authorize,
+        }) => return gen_cert(out.clone(), *force, *client, authorize.as_deref()),
         Some(Command::Devices) => return devices(),
         Some(Command::LoopBench {
             seconds,
@@ -206,6 +222,19 @@ fn serve(cfg: ServerConfig) -> anyhow::Result<()> {
     if generated {
         tracing::warn!(cert = %cert_path.display(), "generated a new self-signed certificate; the workstation must pin this file");
     }
+    let (authorized, authorized_path, local_client, created) =
+        setup::authorized_clients(&cfg).context("authorized clients")?;
+    if created {
+        tracing::warn!(
+            list = %authorized_path.display(),
+            "created a client identity for this machine's workstation next to the certificate (client.pem, client.key) and authorized it"
+        );
+    }
+    tracing::info!(
+        list = %authorized_path.display(),
+        clients = authorized.len(),
+        "only workstations presenting one of these client certificates get a session"
+    );
     let device = setup::open_device(&cfg).context("opening the device")?;
     let info = device.info().clone();
     let driver = setup::driver_config(&cfg);
@@ -214,6 +243,8 @@ fn serve(cfg: ServerConfig) -> anyhow::Result<()> {
         transport: cfg.network.transport,
         listen: cfg.network.listen,
         identity,
+        authorized,
+        local_client,
         driver,
         net: setup::net_settings(&cfg),
     };
@@ -262,8 +293,41 @@ fn serve(cfg: ServerConfig) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn gen_cert(out: Option<PathBuf>, force: bool) -> anyhow::Result<()> {
+fn gen_cert(
+    out: Option<PathBuf>,
+    force: bool,
+    client: bool,
+    authorize: Option<&std::path::Path>,
+) -> anyhow::Result<()> {
     let dir = out.unwrap_or_else(setup::default_cert_dir);
+    if client {
+        let (cert, key) = (dir.join(tls::CLIENT_FILES.0), dir.join(tls::CLIENT_FILES.1));
+        if !force && (cert.exists() || key.exists()) {
+            bail!(
+                "{} or {} exists; pass --force to overwrite",
+                cert.display(),
+                key.display()
+            );
+        }
+        let id = tls::generate_client()?;
+        tls::write_pem(&id, &cert, &key)?;
+        println!(
+            "wrote {} (the server lists it in network.authorized_clients)\nwrote {} (keep private; the workstation reads it with --client-key)\nfingerprint {}",
+            cert.display(),
+            key.display(),
+            tls::fingerprint(&id.cert)
+        );
+        match authorize {
+            Some(list) => {
+                tls::append_authorized(list, &id.cert)?;
+                println!("authorized: appended it to {}", list.display());
+            }
+            None => println!(
+                "authorize it on the haptics PC: cat client.pem >> authorized_clients.pem (next to the server's cert.pem, or network.authorized_clients)"
+            ),
+        }
+        return Ok(());
+    }
     let (cert, key) = (dir.join("cert.pem"), dir.join("key.pem"));
     if !force && (cert.exists() || key.exists()) {
         bail!(

@@ -1,6 +1,7 @@
 //! A running server: a device, the servo and telemetry threads, and one transport on a tokio
 //! runtime of its own. [`Server::start`] works the same from `main` and from tests (which use
-//! [`ServerOptions::for_tests`]: loopback, port 0, a fresh certificate, no real-time requests).
+//! [`ServerOptions::for_tests`]: loopback, port 0, a fresh certificate, a fresh authorized
+//! client identity, no real-time requests).
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -17,7 +18,7 @@ use crate::servo::driver::{self, CursorSink, DriverConfig, ServoThreads};
 use crate::servo::rt::RtRequest;
 use crate::servo::{SafetyParams, ServoParams};
 use crate::telemetry::ServoStats;
-use crate::tls::{self, Identity};
+use crate::tls::{self, AuthorizedClients, Identity};
 use crate::transport::{NetSettings, Shared, quic, udp};
 
 pub use haptics_client::TransportKind;
@@ -31,6 +32,11 @@ pub struct ServerOptions {
     pub listen: SocketAddr,
     /// The certificate the workstation pins.
     pub identity: Identity,
+    /// The client certificates that may open a session.
+    pub authorized: AuthorizedClients,
+    /// A client identity on this machine that `authorized` lists (tests, the in-process demo,
+    /// a server that created one on first start), handed to local workstations.
+    pub local_client: Option<Identity>,
     /// Servo loop settings (device limits are applied on top by `start`).
     pub driver: DriverConfig,
     /// Network timeouts.
@@ -38,12 +44,16 @@ pub struct ServerOptions {
 }
 
 impl ServerOptions {
-    /// Loopback on a free port, a fresh certificate, no real-time requests, no log summaries.
+    /// Loopback on a free port, a fresh certificate and authorized client identity, no
+    /// real-time requests, no log summaries.
     pub fn for_tests(transport: TransportKind) -> Result<Self, ServerError> {
+        let client = tls::generate_client()?;
         Ok(Self {
             transport,
             listen: SocketAddr::from(([127, 0, 0, 1], 0)),
             identity: tls::generate()?,
+            authorized: AuthorizedClients::new(vec![client.cert.clone()]),
+            local_client: Some(client),
             driver: DriverConfig {
                 params: ServoParams {
                     rate_hz: 1000,
@@ -88,6 +98,7 @@ pub enum ServerError {
 pub struct Server {
     local_addr: SocketAddr,
     cert: CertificateDer<'static>,
+    local_client: Option<Identity>,
     shared: Arc<Shared>,
     shutdown: watch::Sender<bool>,
     runtime: Option<std::thread::JoinHandle<()>>,
@@ -136,6 +147,7 @@ impl Server {
                     params.rate_hz,
                     params.safety.max_force_n,
                     opts.net,
+                    opts.authorized.clone(),
                 ));
                 let _guard = runtime.enter();
                 runtime.spawn(udp::run(
@@ -170,6 +182,7 @@ impl Server {
                     params.rate_hz,
                     params.safety.max_force_n,
                     opts.net,
+                    opts.authorized.clone(),
                 ));
                 runtime.spawn(quic::run(
                     Arc::clone(&shared),
@@ -194,6 +207,7 @@ impl Server {
         Ok(Server {
             local_addr,
             cert: opts.identity.cert.clone(),
+            local_client: opts.local_client.clone(),
             shared,
             shutdown,
             runtime: Some(runtime),
@@ -213,6 +227,17 @@ impl Server {
         self.cert.clone()
     }
 
+    /// The client identity on this machine that the server authorizes, if it has one
+    /// ([`ServerOptions::local_client`]): what a local workstation presents.
+    pub fn local_client(&self) -> Option<Identity> {
+        self.local_client.clone()
+    }
+
+    /// Clients refused so far because they presented no authorized certificate.
+    pub fn refused_unauthenticated(&self) -> u64 {
+        self.shared.refused_unauthenticated.load(Ordering::Relaxed)
+    }
+
     /// `Stats` of the active session, or of the last one.
     pub fn stats(&self) -> Stats {
         let hot = self.shared.active();
@@ -222,6 +247,12 @@ impl Server {
     /// The servo thread's telemetry snapshot.
     pub fn servo_stats(&self) -> ServoStats {
         self.shared.servo_stats()
+    }
+
+    /// Start a new telemetry mark window: `servo_stats().lateness_since_mark_ns` covers the
+    /// ticks from now on (within the telemetry thread's 10 ms period).
+    pub fn mark_telemetry(&self) {
+        self.shared.mark_telemetry();
     }
 
     /// Id of the active session.

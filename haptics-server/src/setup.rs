@@ -14,7 +14,7 @@ use crate::device::{Device, DeviceError, openhaptics};
 use crate::servo::driver::DriverConfig;
 use crate::servo::rt::RtRequest;
 use crate::servo::{SafetyParams, ServoParams};
-use crate::tls::{self, Identity, TlsError};
+use crate::tls::{self, AuthorizedClients, Identity, TlsError};
 use crate::transport::NetSettings;
 
 /// `$XDG_CONFIG_HOME/haptics-server`, else `~/.config/haptics-server`, else `./haptics-server`.
@@ -48,6 +48,51 @@ pub fn identity(cfg: &ServerConfig) -> Result<(Identity, PathBuf, bool), TlsErro
         return Ok((id, cert, true));
     }
     Ok((tls::read_identity(&cert, &key)?, cert, false))
+}
+
+/// The authorized client list's path: `network.authorized_clients`, else
+/// `authorized_clients.pem` next to the certificate.
+pub fn authorized_clients_path(cfg: &ServerConfig) -> PathBuf {
+    cfg.network.authorized_clients.clone().unwrap_or_else(|| {
+        let (cert, _) = cert_paths(cfg);
+        cert.with_file_name("authorized_clients.pem")
+    })
+}
+
+/// The authorized clients and the local client identity. When the list is at its default
+/// place and does not exist yet, a client identity is created next to the certificate
+/// (`client.pem`, `client.key`) and becomes the list's first entry: a workstation on this
+/// machine that pins `cert.pem` finds it there (zero steps on loopback). A configured list
+/// must exist. Returns the list, its path, the local identity if there is one, and whether it
+/// was just created.
+pub fn authorized_clients(
+    cfg: &ServerConfig,
+) -> Result<(AuthorizedClients, PathBuf, Option<Identity>, bool), TlsError> {
+    let path = authorized_clients_path(cfg);
+    let (cert, _) = cert_paths(cfg);
+    let dir = cert.parent().map(PathBuf::from).unwrap_or_default();
+    let (client_cert, client_key) = (dir.join(tls::CLIENT_FILES.0), dir.join(tls::CLIENT_FILES.1));
+    let mut created = false;
+    if cfg.network.authorized_clients.is_none() && !path.exists() {
+        if !client_cert.exists() && !client_key.exists() {
+            let id = tls::generate_client()?;
+            tls::write_pem(&id, &client_cert, &client_key)?;
+        }
+        let id = tls::read_identity(&client_cert, &client_key)?;
+        tls::append_authorized(&path, &id.cert)?;
+        created = true;
+    }
+    let list = AuthorizedClients::read(&path).map_err(|e| match e {
+        TlsError::File { path, reason } => TlsError::File {
+            path,
+            reason: format!("network.authorized_clients: {reason}"),
+        },
+        other => other,
+    })?;
+    let local = tls::read_identity(&client_cert, &client_key)
+        .ok()
+        .filter(|id| list.contains(&id.cert));
+    Ok((list, path, local, created))
 }
 
 /// Open the configured device.

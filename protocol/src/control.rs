@@ -188,6 +188,9 @@ pub enum ErrorCode {
     UnexpectedMessage,
     /// Something failed inside the server.
     Internal,
+    /// The client did not prove an authorized identity (no client certificate, or one the
+    /// server does not list in its authorized clients); it gets no session.
+    Unauthenticated,
 }
 
 /// A refusal with its reason.

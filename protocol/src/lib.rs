@@ -32,12 +32,12 @@ pub use control::{Control, FrameDecoder};
 pub use error::{DecodeError, Reject, RejectCounts};
 pub use mac::SessionKey;
 pub use model::ModelRenderer;
-pub use packet::{Body, CursorSample, ForceCommand, LocalModel, ModelKind, Packet};
+pub use packet::{Body, CursorSample, ForceAck, ForceCommand, LocalModel, ModelKind, Packet};
 pub use seq::{Arrival, SequenceStats, SequenceTracker};
 pub use session::{Inbound, Outbound};
 
 /// Version byte carried in every packet header and in `Hello`/`Welcome`.
-pub const PROTOCOL_VERSION: u8 = 2;
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// First two bytes of every hot-path packet: ASCII `"HP"`.
 pub const MAGIC: [u8; 2] = *b"HP";

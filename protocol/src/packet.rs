@@ -1,7 +1,7 @@
 //! Hot-path packets: checked values and their fixed little-endian encoding.
 //!
 //! Layout (all little-endian, no padding; byte tables in `docs/PROTOCOL.md`):
-//! `header (22) | body (cursor 58, force 80) | MAC (16, UDP only)`.
+//! `header (22) | body (cursor 70, force 80) | MAC (16, UDP only)`.
 //! Encoding writes into a caller's fixed buffer and never allocates. Decoding checks length,
 //! magic, version, kind and flags, then validates every value ([`Packet::validate`]): a decoded
 //! [`Packet`] holds only finite numbers inside the documented ranges.
@@ -79,6 +79,8 @@ impl PacketKind {
 pub const CURSOR_FLAG_ENGAGED: u16 = 1 << 0;
 /// Cursor flag: emergency stop is latched; output is zero until released.
 pub const CURSOR_FLAG_ESTOP: u16 = 1 << 1;
+/// Cursor flag: the `ack` fields name the newest force command the server applied.
+pub const CURSOR_FLAG_ACK: u16 = 1 << 2;
 /// Force flag: the torque field is meaningful.
 pub const FORCE_FLAG_TORQUE: u16 = 1 << 0;
 /// Force flag: the local model is a unilateral contact plane.
@@ -127,6 +129,20 @@ pub struct CursorSample {
     pub engaged: bool,
     /// Emergency stop is latched.
     pub estop: bool,
+    /// The newest force command the server has applied, when it has one this session.
+    pub ack: Option<ForceAck>,
+}
+
+/// Which force command a cursor sample follows, and when it reached the server: with the
+/// command's own send time (client clock) and the cursor's header timestamp (server clock),
+/// every cursor carries the four timestamps of an NTP exchange, so the client measures the
+/// network round trip exactly and one-way delays within the clock estimator's bound.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ForceAck {
+    /// The command's header `sequence`.
+    pub sequence: u32,
+    /// When it arrived at the server, server clock, ns.
+    pub arrival_ns: u64,
 }
 
 /// What the server renders until the next command: a force plus a local contact model.
@@ -241,7 +257,7 @@ impl Packet {
         let body_bytes = &bytes[HEADER_LEN..];
         let body = match kind {
             PacketKind::Cursor => {
-                if flags & !(CURSOR_FLAG_ENGAGED | CURSOR_FLAG_ESTOP) != 0 {
+                if flags & !(CURSOR_FLAG_ENGAGED | CURSOR_FLAG_ESTOP | CURSOR_FLAG_ACK) != 0 {
                     return Err(DecodeError::InvalidFlags { kind, flags });
                 }
                 let w = WireCursor::read_from_bytes(body_bytes)
@@ -402,6 +418,9 @@ fn cursor_flags(c: &CursorSample) -> u16 {
     if c.estop {
         flags |= CURSOR_FLAG_ESTOP;
     }
+    if c.ack.is_some() {
+        flags |= CURSOR_FLAG_ACK;
+    }
     flags
 }
 
@@ -427,6 +446,8 @@ fn wire_cursor(c: &CursorSample) -> WireCursor {
         output_force: c.output_force.into(),
         servo_tick: c.servo_tick.into(),
         buttons: c.buttons.into(),
+        ack_sequence: c.ack.map_or(0, |a| a.sequence).into(),
+        ack_arrival_ns: c.ack.map_or(0, |a| a.arrival_ns).into(),
     }
 }
 
@@ -441,6 +462,10 @@ fn cursor_from_wire(w: &WireCursor, flags: u16) -> CursorSample {
         servo_tick: w.servo_tick.get(),
         engaged: flags & CURSOR_FLAG_ENGAGED != 0,
         estop: flags & CURSOR_FLAG_ESTOP != 0,
+        ack: (flags & CURSOR_FLAG_ACK != 0).then(|| ForceAck {
+            sequence: w.ack_sequence.get(),
+            arrival_ns: w.ack_arrival_ns.get(),
+        }),
     }
 }
 

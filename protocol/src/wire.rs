@@ -29,7 +29,7 @@ pub(crate) struct WireVec3 {
     pub z: F32,
 }
 
-/// `CursorSample` body, 58 bytes.
+/// `CursorSample` body, 70 bytes.
 #[derive(Debug, Clone, Copy, FromBytes, IntoBytes, KnownLayout, Immutable, Unaligned)]
 #[repr(C)]
 pub(crate) struct WireCursor {
@@ -40,6 +40,8 @@ pub(crate) struct WireCursor {
     pub output_force: WireVec3,
     pub servo_tick: U32,
     pub buttons: U16,
+    pub ack_sequence: U32,
+    pub ack_arrival_ns: U64,
 }
 
 /// `ForceCommand` body, 80 bytes.
@@ -64,7 +66,7 @@ pub(crate) const CURSOR_BODY_LEN: usize = size_of::<WireCursor>();
 pub(crate) const FORCE_BODY_LEN: usize = size_of::<WireForce>();
 
 const _: () = assert!(HEADER_LEN == 22);
-const _: () = assert!(CURSOR_BODY_LEN == 58);
+const _: () = assert!(CURSOR_BODY_LEN == 70);
 const _: () = assert!(FORCE_BODY_LEN == 80);
 
 impl From<glam::Vec3> for WireVec3 {

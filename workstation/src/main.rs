@@ -46,6 +46,13 @@ enum Command {
     BenchSim(workstation::bench_sim::BenchSimArgs),
     /// Run a scripted sculpting session headless; write PLY points and meshes to --out.
     Sculpt(workstation::sculpt::SculptArgs),
+    /// Measure what the network does to the cursor → force loop: round trip, one-way delays
+    /// (with their bound), jitter, loss, reordering, against a bare UDP ping-pong of the same
+    /// size and rate in the same run. Writes report.json, samples.csv, rtt.hgrm, PNG plots and
+    /// summary.md to --out. Without --server it measures an in-process server over loopback.
+    Latency(workstation::latency::LatencyArgs),
+    /// Echo UDP datagrams: the baseline peer for `latency --echo ADDR` on the server's machine.
+    UdpEcho(workstation::latency::UdpEchoArgs),
     /// Time the haptic queries (field force, shaped probe, B-spline sculpt tick) with their force error.
     BenchForce(workstation::bench_force::BenchForceArgs),
 }
@@ -89,6 +96,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let report = workstation::bench_force::run(&args)?;
             workstation::bench_force::print(&report, args.json)
         }
+        Command::Latency(args) => {
+            let report = workstation::latency::run(&args)?;
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                print!("{}", workstation::latency::report::summary(&report));
+                println!("\nwrote {}", args.out.display());
+            }
+            Ok(())
+        }
+        Command::UdpEcho(args) => workstation::latency::udp_echo(&args),
         Command::Status => {
             workstation::status::print();
             Ok(())

@@ -116,6 +116,9 @@ pub struct NetworkSection {
     pub cert: Option<PathBuf>,
     /// Private key (PEM); omit for the default location.
     pub key: Option<PathBuf>,
+    /// The workstations' client certificates that may open a session (PEM, one or more);
+    /// omit for `authorized_clients.pem` next to the certificate.
+    pub authorized_clients: Option<PathBuf>,
     /// Drop a session silent this long, ms.
     pub idle_timeout_ms: u64,
     /// Send `Stats` this often, ms.
@@ -129,6 +132,7 @@ impl Default for NetworkSection {
             listen: SocketAddr::from(([127, 0, 0, 1], 7700)),
             cert: None,
             key: None,
+            authorized_clients: None,
             idle_timeout_ms: 2000,
             stats_interval_ms: 1000,
         }

@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 use protocol::control::Config;
-use protocol::{CursorSample, ForceCommand, ModelKind, ModelRenderer};
+use protocol::{CursorSample, ForceAck, ForceCommand, ModelKind, ModelRenderer};
 
 use super::safety::{Safety, SafetyOutcome, SafetyParams, Stage};
 use crate::device::DeviceSample;
@@ -78,6 +78,8 @@ pub struct ServoCore {
     base: ServoParams,
     renderer: ModelRenderer,
     command: Option<(ForceCommand, u64)>,
+    /// The newest command's sequence and arrival, echoed in every cursor.
+    ack: Option<ForceAck>,
     smoothed: Vec3,
     safety: Safety,
     session_up: bool,
@@ -93,6 +95,7 @@ impl ServoCore {
             base: params,
             renderer: ModelRenderer::new(),
             command: None,
+            ack: None,
             smoothed: Vec3::ZERO,
             session_up: false,
             tick: 0,
@@ -107,6 +110,7 @@ impl ServoCore {
                 self.params = self.base;
                 self.safety.set_params(self.base.safety);
                 self.command = None;
+                self.ack = None;
                 self.smoothed = Vec3::ZERO;
                 self.renderer.reset();
                 self.safety.session_started();
@@ -114,6 +118,7 @@ impl ServoCore {
             SessionEvent::End => {
                 self.session_up = false;
                 self.command = None;
+                self.ack = None;
                 self.safety.session_ended();
             }
             SessionEvent::EmergencyStop(engage) => {
@@ -148,6 +153,19 @@ impl ServoCore {
             self.renderer.reset();
         }
         self.command = Some((command, arrived_ns));
+    }
+
+    /// [`ServoCore::on_command`] for a command that came in a packet with header `sequence`:
+    /// the cursors from now on acknowledge it ([`CursorSample::ack`]), so the client can time
+    /// the round trip.
+    pub fn on_command_packet(&mut self, arrived_ns: u64, sequence: u32, command: ForceCommand) {
+        if self.session_up {
+            self.ack = Some(ForceAck {
+                sequence,
+                arrival_ns: arrived_ns,
+            });
+        }
+        self.on_command(arrived_ns, command);
     }
 
     /// One servo tick at `now_ns` with the device reading `sample`.
@@ -193,6 +211,7 @@ impl ServoCore {
             servo_tick: self.tick,
             engaged: self.safety.engaged(),
             estop: self.safety.stopped(),
+            ack: self.ack,
         };
         self.tick = self.tick.wrapping_add(1);
         TickOutput { cursor, safety }

@@ -68,12 +68,14 @@ pub enum CursorSink {
 /// The network side's handle on the servo thread.
 #[derive(Debug)]
 pub struct ServoLink {
-    /// Validated force commands with their arrival time (server clock, ns).
-    pub commands: rtrb::Producer<(ForceCommand, u64)>,
+    /// Validated force commands with their header sequence and arrival time (server clock, ns).
+    pub commands: rtrb::Producer<(ForceCommand, u32, u64)>,
     /// Session events.
     pub events: rtrb::Producer<ServoMsg>,
     /// The telemetry snapshot (updated every 10 ms by the telemetry thread).
     pub stats: Arc<Mutex<ServoStats>>,
+    /// Set to start a new mark window of the telemetry (`lateness_since_mark_ns`).
+    pub mark: Arc<AtomicBool>,
 }
 
 /// Everything the driver needs besides the device and sink.
@@ -131,12 +133,18 @@ pub fn spawn<D: Device + 'static>(
     let stats = Arc::new(Mutex::new(ServoStats::default()));
     let stop = Arc::new(AtomicBool::new(false));
     let dropped = Arc::new(AtomicU64::new(0));
+    let mark = Arc::new(AtomicBool::new(false));
     let recorder = match &cfg.record {
         Some(p) => Some(Recorder::create(p)?),
         None => None,
     };
     let telemetry = {
-        let (stats, stop, dropped) = (Arc::clone(&stats), Arc::clone(&stop), Arc::clone(&dropped));
+        let (stats, stop, dropped, mark) = (
+            Arc::clone(&stats),
+            Arc::clone(&stop),
+            Arc::clone(&dropped),
+            Arc::clone(&mark),
+        );
         let log_every = cfg.log_every;
         std::thread::Builder::new()
             .name("telemetry".into())
@@ -147,6 +155,7 @@ pub fn spawn<D: Device + 'static>(
                     stats,
                     dropped,
                     stop,
+                    mark,
                     log_every,
                 )
             })?
@@ -185,6 +194,7 @@ pub fn spawn<D: Device + 'static>(
         commands,
         events,
         stats,
+        mark,
     };
     Ok((
         link,
@@ -201,7 +211,7 @@ struct Loop {
     sink: CursorSink,
     outbound: Option<Outbound>,
     peer: Option<SocketAddr>,
-    command_rx: rtrb::Consumer<(ForceCommand, u64)>,
+    command_rx: rtrb::Consumer<(ForceCommand, u32, u64)>,
     event_rx: rtrb::Consumer<ServoMsg>,
     record_tx: rtrb::Producer<TickRecord>,
     dropped: Arc<AtomicU64>,
@@ -289,8 +299,8 @@ impl Loop {
                 }
             }
         }
-        while let Ok((cmd, arrived)) = self.command_rx.pop() {
-            self.core.on_command(arrived, cmd);
+        while let Ok((cmd, sequence, arrived)) = self.command_rx.pop() {
+            self.core.on_command_packet(arrived, sequence, cmd);
         }
         let mut device_error = false;
         match device.read(now_ns) {

@@ -58,6 +58,9 @@ pub struct ServoStats {
     pub tick_cost_ns: Percentiles,
     /// Start lateness after the deadline.
     pub lateness_ns: Percentiles,
+    /// Start lateness since the last mark ([`crate::server::Server::mark_telemetry`]), so a
+    /// run can compare phases (with and without load) of one server.
+    pub lateness_since_mark_ns: Percentiles,
     /// Cursor packets sent.
     pub packets_out: u64,
     /// Ticks with the clamp active.
@@ -99,6 +102,7 @@ pub struct Telemetry {
     lateness: Histogram<u64>,
     window_cost: Histogram<u64>,
     window_lateness: Histogram<u64>,
+    marked_lateness: Histogram<u64>,
     stats: ServoStats,
     first_ns: Option<u64>,
     recorder: Option<record::Recorder>,
@@ -113,6 +117,7 @@ impl Telemetry {
             lateness: histogram(),
             window_cost: histogram(),
             window_lateness: histogram(),
+            marked_lateness: histogram(),
             stats: ServoStats::default(),
             first_ns: None,
             recorder,
@@ -141,6 +146,7 @@ impl Telemetry {
         let _ = self.lateness.record(clamp(r.lateness_ns));
         let _ = self.window_cost.record(clamp(r.cost_ns));
         let _ = self.window_lateness.record(clamp(r.lateness_ns));
+        let _ = self.marked_lateness.record(clamp(r.lateness_ns));
         if let Some(rec) = &mut self.recorder
             && let Err(e) = rec.write(r)
         {
@@ -154,8 +160,14 @@ impl Telemetry {
         self.stats.period_ns = percentiles(&self.period);
         self.stats.tick_cost_ns = percentiles(&self.cost);
         self.stats.lateness_ns = percentiles(&self.lateness);
+        self.stats.lateness_since_mark_ns = percentiles(&self.marked_lateness);
         self.stats.dropped_records = dropped_records;
         self.stats
+    }
+
+    /// Start a new mark window ([`ServoStats::lateness_since_mark_ns`]).
+    pub fn mark(&mut self) {
+        self.marked_lateness.reset();
     }
 
     /// Log a summary of the window since the last call, then start a new window.
@@ -190,20 +202,26 @@ impl Telemetry {
     }
 }
 
-/// Run the telemetry thread until `stop` is set and the ring is drained.
+/// Run the telemetry thread until `stop` is set and the ring is drained. Setting `mark`
+/// starts a new mark window (after the ticks already queued are accounted).
 pub fn run(
     mut consumer: rtrb::Consumer<TickRecord>,
     mut telemetry: Telemetry,
     shared: Arc<Mutex<ServoStats>>,
     dropped: Arc<std::sync::atomic::AtomicU64>,
     stop: Arc<AtomicBool>,
+    mark: Arc<AtomicBool>,
     log_every: Duration,
 ) {
     let mut last_log = std::time::Instant::now();
     loop {
         let stopping = stop.load(Ordering::Acquire);
+        let marking = mark.swap(false, Ordering::AcqRel);
         while let Ok(r) = consumer.pop() {
             telemetry.add(&r);
+        }
+        if marking {
+            telemetry.mark();
         }
         let snap = telemetry.snapshot(dropped.load(Ordering::Relaxed));
         if let Ok(mut s) = shared.lock() {

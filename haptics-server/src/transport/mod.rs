@@ -1,8 +1,9 @@
 //! Transports: what both share (one session at a time, the control conversation, hot-path
 //! acceptance) and the two wire bindings, [`udp`] and [`quic`].
 //!
-//! A session: the client sends `Hello` on the control channel; if no other session is active
-//! the server answers `Welcome` (fresh random session id and key) and tells the servo thread
+//! A session: the client sends `Hello` on the control channel; if its TLS client certificate
+//! is not one of the [`AuthorizedClients`](crate::tls::AuthorizedClients) the server answers
+//! `Error { Unauthenticated }` and closes; if no other session is active it answers `Welcome` (fresh random session id and key) and tells the servo thread
 //! ([`ServoMsg::Start`]); otherwise it answers `Error { Busy }` and closes. During the session
 //! it answers `ClockPing`s, forwards `Config` and `EmergencyStop` to the servo thread, sends
 //! `Stats` every `stats_interval`, and ends the session on `Bye`, on a closed control channel,
@@ -90,6 +91,10 @@ pub struct Shared {
     pub refused_busy: AtomicU64,
     /// Hot-path packets that arrived with no session active.
     pub unsolicited: AtomicU64,
+    /// The client certificates that may open a session.
+    pub authorized: crate::tls::AuthorizedClients,
+    /// Clients refused because they presented no authorized certificate.
+    pub refused_unauthenticated: AtomicU64,
 }
 
 impl Shared {
@@ -101,6 +106,7 @@ impl Shared {
         servo_rate_hz: u32,
         max_force_n: f32,
         net: NetSettings,
+        authorized: crate::tls::AuthorizedClients,
     ) -> Self {
         Self {
             clock,
@@ -114,6 +120,8 @@ impl Shared {
             sessions_started: AtomicU64::new(0),
             refused_busy: AtomicU64::new(0),
             unsolicited: AtomicU64::new(0),
+            authorized,
+            refused_unauthenticated: AtomicU64::new(0),
         }
     }
 
@@ -169,7 +177,7 @@ impl Shared {
                         }
                         if let Ok(mut link) = self.link.lock() {
                             // Drained every tick; full only if the servo thread is stuck.
-                            let _ = link.commands.push((cmd, now));
+                            let _ = link.commands.push((cmd, packet.sequence, now));
                         }
                         true
                     }
@@ -222,6 +230,13 @@ impl Shared {
             *last = stats;
         }
         stats
+    }
+
+    /// Start a new telemetry mark window (see `ServoStats::lateness_since_mark_ns`).
+    pub fn mark_telemetry(&self) {
+        if let Ok(l) = self.link.lock() {
+            l.mark.store(true, Ordering::Release);
+        }
     }
 
     /// The servo thread's telemetry snapshot.
@@ -304,6 +319,7 @@ mod tests {
             commands,
             events,
             stats: Arc::default(),
+            mark: Arc::default(),
         };
         let shared = Shared::new(
             MonoClock::new(),
@@ -312,6 +328,7 @@ mod tests {
             1000,
             3.3,
             NetSettings::default(),
+            crate::tls::AuthorizedClients::default(),
         );
         let key = SessionKey::from_bytes([7; 32]);
         let hot = shared.claim(Some(key.clone())).unwrap();
@@ -330,7 +347,7 @@ mod tests {
         assert!(shared.accept_hot(&hot, &newer[..n_newer]));
         shared.accept_hot(&hot, &older[..n_older]);
         let mut last = None;
-        while let Ok((cmd, _)) = command_rx.pop() {
+        while let Ok((cmd, ..)) = command_rx.pop() {
             last = Some(cmd.force.x);
         }
         assert_eq!(last, Some(0.2), "the servo must keep the newest command");

@@ -12,6 +12,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use quinn::crypto::rustls::QuicServerConfig;
+use rustls::pki_types::CertificateDer;
 use tokio::sync::watch;
 
 use super::{HotKind, Shared, TransportError, serve_control};
@@ -109,7 +110,19 @@ async fn connection(
             });
         }
     };
-    let result = serve_control(shared, &mut rd, &mut wr, HotKind::Quic, reader).await;
+    let client_cert = conn
+        .peer_identity()
+        .and_then(|id| id.downcast::<Vec<CertificateDer<'static>>>().ok())
+        .and_then(|certs| certs.first().cloned());
+    let result = serve_control(
+        shared,
+        &mut rd,
+        &mut wr,
+        HotKind::Quic,
+        client_cert.as_ref(),
+        reader,
+    )
+    .await;
     if let Ok(mut c) = current.lock()
         && c.as_ref()
             .is_some_and(|c| c.stable_id() == conn.stable_id())

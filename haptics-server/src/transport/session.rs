@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use protocol::control::{ClockPong, ControlError, ErrorCode, ErrorMessage, Welcome};
 use protocol::{Control, FrameDecoder, PROTOCOL_VERSION, SessionKey};
+use rustls::pki_types::CertificateDer;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite};
 
 use super::{HotState, Shared, TransportError};
@@ -31,14 +32,16 @@ pub enum HotKind {
     Quic,
 }
 
-/// Run one control conversation (see the module doc). `on_start` is called once the session
-/// is up (QUIC spawns its datagram reader there). Returns the session's hot state, if one
-/// was started, after it ended.
+/// Run one control conversation (see the module doc). `client_cert` is the certificate the
+/// client presented in the TLS handshake (its key checked there), if any. `on_start` is called
+/// once the session is up (QUIC spawns its datagram reader there). Returns the session's hot
+/// state, if one was started, after it ended.
 pub async fn serve_control<R, W>(
     shared: &Arc<Shared>,
     rd: &mut R,
     wr: &mut W,
     kind: HotKind,
+    client_cert: Option<&CertificateDer<'_>>,
     on_start: impl FnOnce(Arc<HotState>),
 ) -> Result<Option<Arc<HotState>>, TransportError>
 where
@@ -70,6 +73,25 @@ where
             hello.protocol_version
         );
         write_control(wr, &error(ErrorCode::VersionMismatch, msg)).await?;
+        return Ok(None);
+    }
+    if !client_cert.is_some_and(|c| shared.authorized.contains(c)) {
+        shared
+            .refused_unauthenticated
+            .fetch_add(1, Ordering::Relaxed);
+        let msg = match client_cert {
+            None => "no client certificate: the server accepts only workstations listed in its \
+                     authorized clients (network.authorized_clients); give the workstation \
+                     --client-cert/--client-key"
+                .to_string(),
+            Some(c) => format!(
+                "client certificate {} is not authorized: append the workstation's client.pem \
+                 to the server's authorized clients file (network.authorized_clients)",
+                crate::tls::fingerprint(c)
+            ),
+        };
+        tracing::warn!(client = %hello.client_name, "refused: {msg}");
+        write_control(wr, &error(ErrorCode::Unauthenticated, msg)).await?;
         return Ok(None);
     }
     let key = match kind {

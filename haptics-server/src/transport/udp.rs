@@ -45,9 +45,13 @@ pub async fn run(
     shutdown: watch::Receiver<bool>,
 ) -> std::io::Result<()> {
     let tcp = tokio::net::TcpListener::from_std(tcp)?;
-    let udp = tokio::net::UdpSocket::from_std(udp)?;
     let acceptor = tokio_rustls::TlsAcceptor::from(Arc::new(tls));
-    let recv = tokio::spawn(receive(Arc::clone(&shared), udp, shutdown.clone()));
+    let recv = {
+        let (shared, shutdown) = (Arc::clone(&shared), shutdown.clone());
+        std::thread::Builder::new()
+            .name("udp-recv".into())
+            .spawn(move || receive(&shared, &udp, &shutdown))?
+    };
     let mut stop = shutdown.clone();
     loop {
         tokio::select! {
@@ -73,10 +77,11 @@ pub async fn run(
                             return;
                         }
                     };
+                    let client_cert = tls.get_ref().1.peer_certificates().and_then(|c| c.first()).cloned();
                     let (mut rd, mut wr) = tokio::io::split(tls);
                     let mut shutdown = shutdown;
                     tokio::select! {
-                        r = serve_control(&shared, &mut rd, &mut wr, HotKind::Udp, |_| {}) => {
+                        r = serve_control(&shared, &mut rd, &mut wr, HotKind::Udp, client_cert.as_ref(), |_| {}) => {
                             if let Err(e) = r {
                                 tracing::warn!(%from, "control connection: {e}");
                             }
@@ -90,32 +95,45 @@ pub async fn run(
             _ = stop.wait_for(|s| *s) => break,
         }
     }
-    recv.abort();
+    // The receiver sees the shutdown within its 100 ms poll.
+    let _ = tokio::task::spawn_blocking(move || recv.join()).await;
     Ok(())
 }
 
-async fn receive(
-    shared: Arc<Shared>,
-    udp: tokio::net::UdpSocket,
-    mut shutdown: watch::Receiver<bool>,
-) {
+/// The hot-path receiver: a thread of its own that sleeps in `poll(2)` on the socket and
+/// handles each datagram the moment it arrives (a wake-up through the async reactor and its
+/// worker costs tens of µs per packet on a loaded machine; this is the latency-critical
+/// direction of the force loop). The socket stays non-blocking because the servo thread sends
+/// cursors through a clone of it and must never block.
+fn receive(shared: &Shared, udp: &UdpSocket, shutdown: &watch::Receiver<bool>) {
+    use std::os::fd::AsRawFd as _;
     let mut buf = [0u8; MAX_PACKET_BYTES + 1];
-    loop {
-        let (n, from) = tokio::select! {
-            r = udp.recv_from(&mut buf) => match r {
+    while !*shutdown.borrow() {
+        let mut pfd = libc::pollfd {
+            fd: udp.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        // SAFETY: one valid pollfd for the duration of the call.
+        let ready = unsafe { libc::poll(&mut pfd, 1, 100) };
+        if ready <= 0 {
+            continue;
+        }
+        loop {
+            let (n, from) = match udp.recv_from(&mut buf) {
                 Ok(r) => r,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
                 // ICMP port unreachable from a vanished client surfaces here on Linux.
                 Err(_) => continue,
-            },
-            _ = shutdown.wait_for(|s| *s) => return,
-        };
-        let Some(hot) = shared.active() else {
-            shared.unsolicited.fetch_add(1, Ordering::Relaxed);
-            continue;
-        };
-        if shared.accept_hot(&hot, &buf[..n]) && hot.set_peer(from) {
-            tracing::info!(%from, "hot path: streaming cursor samples to the workstation");
-            shared.servo(ServoMsg::Peer(from));
+            };
+            let Some(hot) = shared.active() else {
+                shared.unsolicited.fetch_add(1, Ordering::Relaxed);
+                continue;
+            };
+            if shared.accept_hot(&hot, &buf[..n]) && hot.set_peer(from) {
+                tracing::info!(%from, "hot path: streaming cursor samples to the workstation");
+                shared.servo(ServoMsg::Peer(from));
+            }
         }
     }
 }

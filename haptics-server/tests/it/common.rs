@@ -25,6 +25,7 @@ pub fn server(kind: TransportKind, idle: Duration) -> (Server, Arc<FakeMonitor>)
 
 pub fn config(server: &Server, kind: TransportKind) -> ClientConfig {
     let mut cfg = ClientConfig::new(server.local_addr(), kind, server.certificate());
+    cfg.identity = server.local_client();
     cfg.timeout = Duration::from_secs(20);
     cfg
 }

@@ -153,3 +153,53 @@ async fn quic_malformed_datagrams_are_counted_and_ignored() {
     assert_eq!(monitor.nonzero_writes(), 0);
     assert_eq!(server.stats().packets_in, 0);
 }
+
+/// Only a workstation presenting an authorized client certificate gets a session: without a
+/// certificate, or with one the server does not list, `Hello` is answered with a named
+/// `Unauthenticated` error on both transports, the device never sees a force, and the slot
+/// stays free for the authorized workstation.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn unauthenticated_clients_get_a_named_error_and_never_a_session() {
+    use haptics_server::client::{Client, ClientError};
+    use protocol::control::ErrorCode;
+
+    for kind in [TransportKind::Udp, TransportKind::Quic] {
+        let (server, monitor) = server(kind, Duration::from_secs(120));
+        let stranger = haptics_server::tls::generate_client().unwrap();
+        let fingerprint = haptics_server::tls::fingerprint(&stranger.cert);
+        for (who, identity) in [("no certificate", None), ("unlisted", Some(stranger))] {
+            let mut cfg = crate::common::config(&server, kind);
+            cfg.identity = identity;
+            match Client::connect(&cfg).await {
+                Err(ClientError::Refused {
+                    code: ErrorCode::Unauthenticated,
+                    message,
+                }) => {
+                    if who == "unlisted" {
+                        assert!(message.contains(&fingerprint), "{kind:?}: {message}");
+                    }
+                    assert!(message.contains("authorized"), "{kind:?}: {message}");
+                }
+                other => panic!("{kind:?} {who}: expected Unauthenticated, got {other:?}"),
+            }
+        }
+        assert_eq!(server.refused_unauthenticated(), 2, "{kind:?}");
+        assert_eq!(
+            server.sessions_started(),
+            0,
+            "{kind:?}: no session was started"
+        );
+        assert_eq!(
+            monitor.nonzero_writes(),
+            0,
+            "{kind:?}: the device never saw a force"
+        );
+        // The authorized workstation still gets the (free) session.
+        let mut client = connect(&server, kind).await;
+        tokio::time::timeout(Duration::from_secs(20), client.hot.recv_cursor())
+            .await
+            .expect("cursor within 20 s")
+            .expect("cursor");
+        assert_eq!(server.sessions_started(), 1, "{kind:?}");
+    }
+}

@@ -2,7 +2,9 @@
 
 use glam::{Quat, Vec3};
 use protocol::control::{ClockPing, Config, ErrorCode, ErrorMessage, Hello, Welcome};
-use protocol::{Body, Control, CursorSample, ForceCommand, LocalModel, ModelKind, SessionKey};
+use protocol::{
+    Body, Control, CursorSample, ForceAck, ForceCommand, LocalModel, ModelKind, SessionKey,
+};
 
 pub const SESSION: u32 = 0x0102_0304;
 
@@ -25,6 +27,10 @@ pub fn cursor() -> CursorSample {
         servo_tick: 42,
         engaged: true,
         estop: false,
+        ack: Some(ForceAck {
+            sequence: 6,
+            arrival_ns: 999_650_000,
+        }),
     }
 }
 

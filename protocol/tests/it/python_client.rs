@@ -64,6 +64,9 @@ fn python_decodes_the_golden_cursor_and_force() {
         assert_eq!(v["servo_tick"], c.servo_tick);
         assert_eq!(v["buttons"], c.buttons);
         assert_eq!(v["engaged"], true);
+        let ack = c.ack.expect("the example acknowledges a command");
+        assert_eq!(v["ack"]["sequence"], ack.sequence, "{name}: {v}");
+        assert_eq!(v["ack"]["arrival_ns"], ack.arrival_ns, "{name}: {v}");
     }
     let v = python_decode("force_udp", true);
     let f = examples::force();

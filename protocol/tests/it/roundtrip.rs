@@ -8,8 +8,8 @@ use protocol::control::{
 };
 use protocol::packet::MAX_PACKET_BYTES;
 use protocol::{
-    Body, Control, CursorSample, ForceCommand, FrameDecoder, Inbound, LocalModel, ModelKind,
-    Outbound, SessionKey,
+    Body, Control, CursorSample, ForceAck, ForceCommand, FrameDecoder, Inbound, LocalModel,
+    ModelKind, Outbound, SessionKey,
 };
 
 fn scalar(limit: f32) -> impl Strategy<Value = f32> {
@@ -40,6 +40,7 @@ fn cursor() -> impl Strategy<Value = CursorSample> {
         vec3(1000.0),
         any::<u32>(),
         any::<(bool, bool)>(),
+        proptest::option::of(any::<(u32, u64)>()),
     )
         .prop_map(
             |(
@@ -50,6 +51,7 @@ fn cursor() -> impl Strategy<Value = CursorSample> {
                 output_force,
                 servo_tick,
                 (engaged, estop),
+                ack,
             )| {
                 CursorSample {
                     position,
@@ -60,6 +62,10 @@ fn cursor() -> impl Strategy<Value = CursorSample> {
                     servo_tick,
                     engaged,
                     estop,
+                    ack: ack.map(|(sequence, arrival_ns)| ForceAck {
+                        sequence,
+                        arrival_ns,
+                    }),
                 }
             },
         )

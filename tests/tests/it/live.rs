@@ -66,6 +66,7 @@ fn server_with(
         server: server.local_addr(),
         transport,
         cert: server.certificate(),
+        identity: server.local_client(),
     };
     (server, monitor, cfg)
 }

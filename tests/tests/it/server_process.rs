@@ -1,5 +1,5 @@
 //! The `haptics-server` executable, as a lab runs it: a fake stylus, a pinned certificate made
-//! by `gen-cert`, a workstation client over UDP and over QUIC. Force reaches the device only
+//! by `gen-cert`, a client identity made and authorized by `gen-cert --client`, a workstation client over UDP and over QUIC. Force reaches the device only
 //! through the safety stages (engage small, then clamp keeping direction), a second workstation
 //! is refused, a workstation restart is survived, and Ctrl-C stops the server cleanly.
 
@@ -10,7 +10,7 @@ use e2e_tests::{ChildGuard, binary, free_port, loopback};
 use glam::Vec3;
 use haptics_server::client::{Client, ClientConfig, ClientError};
 use haptics_server::server::TransportKind;
-use haptics_server::tls::read_cert;
+use haptics_server::tls::{read_cert, read_identity};
 use protocol::control::ErrorCode;
 use protocol::{CursorSample, ForceCommand, LocalModel};
 
@@ -33,6 +33,18 @@ fn start(transport: &str) -> Running {
     assert!(
         out.status.success(),
         "gen-cert: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = Command::new(binary("haptics-server"))
+        .args(["gen-cert", "--client", "--out"])
+        .arg(dir.path().join("ws"))
+        .arg("--authorize")
+        .arg(dir.path().join("authorized_clients.pem"))
+        .output()
+        .expect("run gen-cert --client");
+    assert!(
+        out.status.success(),
+        "gen-cert --client: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     let port = free_port();
@@ -58,6 +70,13 @@ fn start(transport: &str) -> Running {
     let cert = read_cert(&dir.path().join("cert.pem")).expect("read cert");
     let mut config = ClientConfig::new(loopback(port), kind, cert);
     config.timeout = Duration::from_secs(5);
+    config.identity = Some(
+        read_identity(
+            &dir.path().join("ws/client.pem"),
+            &dir.path().join("ws/client.key"),
+        )
+        .expect("read the client identity"),
+    );
     Running {
         server,
         config,

@@ -430,6 +430,7 @@ pub fn embedded_server(
         server: server.local_addr(),
         transport,
         cert: server.certificate(),
+        identity: server.local_client(),
     };
     Ok((Some(server), cfg))
 }

@@ -447,6 +447,7 @@ friction = 0.0
             servo_tick: 0,
             engaged: true,
             estop: false,
+            ack: None,
         }
     }
 

@@ -117,6 +117,7 @@ impl MouseSampler {
             servo_tick: self.tick,
             engaged: true,
             estop: false,
+            ack: None,
         })
     }
 }

@@ -1,6 +1,8 @@
 //! The network side: a tokio runtime on its own thread that keeps one session with the server.
 //!
-//! Connect through `haptics-client` with the pinned certificate (handshake, `Welcome`), wait for
+//! Connect through `haptics-client` with the pinned certificate and the workstation's client
+//! identity (handshake, `Welcome`; an unauthorized identity stops the workstation with the
+//! server's reason instead of retrying), wait for
 //! the first cursor (the UDP opener is re-sent until it arrives), split the hot path and hand
 //! the [`HotSender`](haptics_client::HotSender) to the force thread. Then, concurrently: every
 //! cursor goes into the force thread's ring (which it unparks); a `ClockPing` every 100 ms feeds
@@ -17,8 +19,9 @@ use std::thread::Thread;
 use std::time::{Duration, Instant};
 
 use haptics_client::client::ClientError;
+use haptics_client::tls::Identity;
 use haptics_client::{Client, ClientConfig, HotSender, TransportKind};
-use protocol::control::{ClockPing, Stats};
+use protocol::control::{ClockPing, ErrorCode, Stats};
 use protocol::{ClockEstimator, ClockSample, Control};
 use rustls::pki_types::CertificateDer;
 
@@ -37,11 +40,14 @@ pub struct NetConfig {
     pub transport: TransportKind,
     /// The server's certificate, pinned.
     pub cert: CertificateDer<'static>,
+    /// The workstation's client certificate and key, which the server must authorize.
+    pub identity: Option<Identity>,
 }
 
 impl NetConfig {
     /// From the `--server`, `--cert` and `--transport` flags: `None` without `--server`;
-    /// `--server` without `--cert` is an error naming both.
+    /// `--server` without `--cert` is an error naming both. The client identity is the one next
+    /// to the certificate ([`client_identity`]).
     pub fn from_flags(
         server: Option<SocketAddr>,
         cert: Option<&std::path::Path>,
@@ -52,9 +58,36 @@ impl NetConfig {
                 server,
                 transport,
                 cert: haptics_client::tls::read_cert(cert)?,
+                identity: client_identity(cert, None, None)?,
             })),
             (Some(_), None) => anyhow::bail!("--server needs --cert (the server's certificate)"),
             (None, _) => Ok(None),
+        }
+    }
+}
+
+/// The workstation's client identity: `client_cert` and `client_key` when given (both or
+/// neither), else `client.pem`/`client.key` next to the server's certificate (where a server on
+/// this machine creates them on first start), else none (the server will refuse the session
+/// and say so).
+pub fn client_identity(
+    server_cert: &std::path::Path,
+    client_cert: Option<&std::path::Path>,
+    client_key: Option<&std::path::Path>,
+) -> anyhow::Result<Option<Identity>> {
+    let pair = match (client_cert, client_key) {
+        (Some(c), Some(k)) => Some((c.to_path_buf(), k.to_path_buf())),
+        (None, None) => haptics_client::tls::identity_beside(server_cert),
+        _ => anyhow::bail!("--client-cert and --client-key go together (give both or neither)"),
+    };
+    match pair {
+        Some((c, k)) => Ok(Some(haptics_client::tls::read_identity(&c, &k)?)),
+        None => {
+            tracing::warn!(
+                "no client identity (--client-cert/--client-key, or client.pem/client.key next to {}): the server will refuse the session",
+                server_cert.display()
+            );
+            Ok(None)
         }
     }
 }
@@ -87,6 +120,7 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
         let mut backoff = Duration::from_millis(100);
         while !shared.stopping() {
             let mut ccfg = ClientConfig::new(cfg.server, cfg.transport, cfg.cert.clone());
+            ccfg.identity = cfg.identity.clone();
             ccfg.client_name = format!("workstation {}", std::process::id());
             match Client::connect(&ccfg).await {
                 Ok(client) => {
@@ -115,6 +149,15 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
                             backoff = (backoff * 2).min(Duration::from_secs(2));
                         }
                     }
+                }
+                Err(ClientError::Refused {
+                    code: ErrorCode::Unauthenticated,
+                    message,
+                }) => {
+                    // Retrying cannot help: the server's list or our identity must change.
+                    tracing::error!("the server refused this workstation: {message}");
+                    shared.request_stop();
+                    return;
                 }
                 Err(e) => {
                     tracing::debug!("connect to {} failed: {e}", cfg.server);

@@ -32,6 +32,13 @@ pub struct RunArgs {
     /// (`haptics-server gen-cert` prints where it is).
     #[arg(long, value_name = "FILE")]
     pub cert: PathBuf,
+    /// The workstation's client certificate (PEM), listed in the server's authorized clients
+    /// [default: client.pem next to --cert, where a local server creates it].
+    #[arg(long, value_name = "FILE", requires = "client_key")]
+    pub client_cert: Option<PathBuf>,
+    /// The client certificate's private key (PEM) [default: client.key next to --cert].
+    #[arg(long, value_name = "FILE", requires = "client_cert")]
+    pub client_key: Option<PathBuf>,
     /// The scene (TOML; see examples/live/README.md).
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: PathBuf,
@@ -112,6 +119,11 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         server: args.server,
         transport: args.transport,
         cert: haptics_client::tls::read_cert(&args.cert)?,
+        identity: super::net::client_identity(
+            &args.cert,
+            args.client_cert.as_deref(),
+            args.client_key.as_deref(),
+        )?,
     };
     // SAFETY: installs an async-signal-safe handler that only stores to an atomic.
     unsafe {

@@ -1,0 +1,168 @@
+//! `workstation latency` as a user runs it: an in-process server over loopback on both
+//! transports, every output written and self-consistent, the session kept for the whole run
+//! with memory flat (the shortened soak; the hour-long one is documented in docs/BENCHMARKS.md),
+//! and a forged-packet flood rejected without ending the session. Timing ratios are reported,
+//! not asserted (machines differ); what must hold on any machine is asserted.
+
+use std::path::Path;
+use std::process::Command;
+
+use e2e_tests::binary;
+use serde_json::Value;
+
+fn latency(out: &Path, extra: &[&str]) -> Value {
+    let o = Command::new(binary("workstation"))
+        .arg("latency")
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("run workstation latency");
+    assert!(
+        o.status.success(),
+        "latency {extra:?} failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let text = std::fs::read_to_string(out.join("report.json")).expect("report.json");
+    serde_json::from_str(&text).expect("report.json is JSON")
+}
+
+fn f(v: &Value, path: &str) -> f64 {
+    path.split('.')
+        .fold(v, |v, k| &v[k])
+        .as_f64()
+        .unwrap_or_else(|| panic!("{path} missing in {v}"))
+}
+
+fn check_report(r: &Value, dir: &Path, seconds: f64) {
+    let t = r["transport"].as_str().unwrap().to_string();
+    // The server streams at 1 kHz and every cursor is answered: most commands are measured.
+    assert!(
+        f(r, "samples") > 0.5 * 1000.0 * seconds,
+        "{t}: {} samples",
+        r["samples"]
+    );
+    for key in ["rtt_us", "network_rtt_us", "baseline_udp_rtt_us"] {
+        let (p50, p99, p999, max) = (
+            f(r, &format!("{key}.p50")),
+            f(r, &format!("{key}.p99")),
+            f(r, &format!("{key}.p999")),
+            f(r, &format!("{key}.max")),
+        );
+        assert!(
+            0.0 < p50 && p50 <= p99 && p99 <= p999 && p999 <= max,
+            "{t} {key}: {p50} {p99} {p999} {max}"
+        );
+    }
+    // The cursor → force round trip contains the network round trip plus the turnaround.
+    assert!(
+        f(r, "network_rtt_us.p50") <= f(r, "rtt_us.p50") * 1.02,
+        "{t}: {r}"
+    );
+    // One-way delays each way add up to the round trip, each within its stated bound.
+    let bound = f(r, "one_way_us.server_to_workstation.bound");
+    assert!(bound > 0.0, "{t}: a bound is stated");
+    let sum =
+        f(r, "one_way_us.server_to_workstation.p50") + f(r, "one_way_us.workstation_to_server.p50");
+    assert!(
+        (sum - f(r, "network_rtt_us.p50")).abs() <= 2.0 * bound + 5.0,
+        "{t}: one-way p50s {sum} vs network round trip {}",
+        r["network_rtt_us"]["p50"]
+    );
+    assert!(f(r, "ratio_p50") > 0.0 && r["goal"]["ratio_limit"].is_number());
+    // Loopback loses, reorders and duplicates (next to) nothing.
+    assert!(
+        f(r, "loss.server_to_workstation") < 0.01,
+        "{t}: {}",
+        r["loss"]
+    );
+    assert!(
+        f(r, "loss.workstation_to_server") < 0.01,
+        "{t}: {}",
+        r["loss"]
+    );
+    assert!(r["reordered"]["server_to_workstation"].is_u64());
+    assert!(r["duplicates"]["workstation_to_server"].is_u64());
+    assert_eq!(r["sessions"], 1, "{t}: the session was never lost");
+    for file in [
+        "samples.csv",
+        "baseline.csv",
+        "rtt.hgrm",
+        "summary.md",
+        "rtt_histogram.png",
+        "rtt_over_time.png",
+    ] {
+        let len = std::fs::metadata(dir.join(file))
+            .unwrap_or_else(|e| panic!("{t}: {file}: {e}"))
+            .len();
+        assert!(len > 100, "{t}: {file} is {len} bytes");
+    }
+    let csv = std::fs::read_to_string(dir.join("samples.csv")).unwrap();
+    assert!(csv.lines().count() > 100, "{t}: samples.csv");
+}
+
+#[test]
+fn latency_runs_over_udp_and_quic_write_a_consistent_report() {
+    let dir = tempfile::tempdir().unwrap();
+    for transport in ["udp", "quic"] {
+        let out = dir.path().join(transport);
+        let r = latency(&out, &["--transport", transport, "--duration", "2"]);
+        check_report(&r, &out, 2.0);
+    }
+}
+
+/// The shortened soak: 8 s of session, memory flat after the first second, nothing lost.
+#[test]
+fn a_short_soak_keeps_the_session_and_memory_flat() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = latency(dir.path(), &["--duration", "8"]);
+    check_report(&r, dir.path(), 8.0);
+    let growth = f(&r, "memory.growth_kib");
+    assert!(
+        growth < 2048.0,
+        "resident memory grew {growth} KiB in 7 s: {}",
+        r["memory"]
+    );
+}
+
+/// Forged packets at 50× the command rate (right session id, wrong MAC) are rejected by the
+/// server, none ends the session, and the report compares the loop's lateness with and
+/// without them in the same run.
+#[test]
+fn a_forged_packet_flood_is_rejected_and_survived() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = latency(dir.path(), &["--duration", "2", "--flood", "50"]);
+    let flood = &r["flood"];
+    let sent = f(flood, "forged_sent");
+    assert!(
+        sent > 0.5 * 50.0 * 1000.0 * 2.0,
+        "forged packets sent: {flood}"
+    );
+    assert!(
+        f(flood, "rejected_by_server") >= 0.9 * sent,
+        "the server rejected them: {flood}"
+    );
+    assert!(f(flood, "lateness_p99_us_without") > 0.0);
+    assert!(f(flood, "lateness_p99_us_with") > 0.0);
+    assert!(flood["goal_met"].is_boolean());
+    assert_eq!(r["sessions"], 1);
+}
+
+#[test]
+fn bad_counts_get_named_errors() {
+    for (args, want) in [
+        (&["--rate", "0"][..], "MAX_RATE_HZ"),
+        (&["--duration", "1e9"][..], "MAX_DURATION_S"),
+        (&["--payload", "100000"][..], "--payload"),
+        (&["--flood", "1000"][..], "MAX_FLOOD"),
+    ] {
+        let o = Command::new(binary("workstation"))
+            .arg("latency")
+            .args(args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(want), "{args:?}: {err}");
+    }
+}
