@@ -7,6 +7,7 @@
 pub mod bench_force;
 pub mod bench_sim;
 pub mod fit;
+pub mod limits;
 pub mod live;
 pub mod logging;
 pub mod plot;
