@@ -26,6 +26,10 @@ use sim_core::probe::{
     ContactParams, DirectionMethod, MagnitudeMethod, Probe, ProbePose, ProbeRenderer, SampleGrid,
 };
 
+use crate::cap;
+use crate::limits::{
+    MAX_CONTACTS, MAX_FORCE_CELLS, MAX_GEN_POINTS, MAX_QUERIES, MAX_REPEATS, OverLimit,
+};
 use crate::scenes::bspline_probe::{BsplineProbeScene, SceneConfig};
 
 mod continuity;
@@ -143,6 +147,16 @@ fn field_params(r: f64) -> FieldContactParams {
     }
 }
 
+/// The caps on `--cells`, `--contacts`, `--queries`, `--repeats` and `--fit-points` (see
+/// [`crate::limits`]).
+fn check_counts(args: &BenchForceArgs) -> Result<(), OverLimit> {
+    cap!("--cells", args.cells, MAX_FORCE_CELLS, "cells per radius")?;
+    cap!("--contacts", args.contacts, MAX_CONTACTS, "contacts")?;
+    cap!("--queries", args.queries, MAX_QUERIES, "queries")?;
+    cap!("--repeats", args.repeats, MAX_REPEATS, "runs")?;
+    cap!("--fit-points", args.fit_points, MAX_GEN_POINTS, "points")
+}
+
 /// Run every measurement.
 pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
     anyhow::ensure!(
@@ -155,6 +169,7 @@ pub fn run(args: &BenchForceArgs) -> anyhow::Result<BenchForceReport> {
         "--cells must be finite and at least 2 (got {})",
         args.cells
     );
+    check_counts(args)?;
     let r = args.radius;
     let sphere = AnalyticField::Sphere { size: r };
     let h = r / args.cells;
@@ -398,5 +413,38 @@ mod tests {
             let msg = format!("{:#}", run(&cli.args).unwrap_err());
             assert!(msg.contains(flag), "{flag} {value}: {msg}");
         }
+    }
+}
+
+#[cfg(test)]
+mod limit_tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: BenchForceArgs,
+    }
+
+    fn error_of(flags: &[&str]) -> String {
+        let cli = Cli::parse_from(std::iter::once("bench-force").chain(flags.iter().copied()));
+        run(&cli.args).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn counts_over_their_caps_are_named_errors() {
+        assert_eq!(
+            error_of(&["--contacts", "1000001"]),
+            "--contacts = 1000001 is over the limit of 1000000 contacts (MAX_CONTACTS)"
+        );
+        assert!(error_of(&["--queries", "1000001"]).contains("(MAX_QUERIES)"));
+        assert!(error_of(&["--repeats", "101"]).contains("(MAX_REPEATS)"));
+        assert!(error_of(&["--fit-points", "20000001"]).contains("(MAX_GEN_POINTS)"));
+        assert_eq!(
+            error_of(&["--cells", "1000"]),
+            "--cells = 1000 is over the limit of 200 cells per radius (MAX_FORCE_CELLS)"
+        );
     }
 }

@@ -18,6 +18,9 @@ use sim_core::sampling::Shape;
 use sim_core::scene::{RegionParams, Scene, SceneObject, SculptStage, StepObserver};
 use sim_core::tools::{Profile, Rope};
 
+use crate::cap;
+use crate::limits::{MAX_BENCH_GRID, MAX_GEN_POINTS, MAX_STATIC_OBJECTS, MAX_STEPS, OverLimit};
+
 mod report;
 
 pub use report::{BenchSimReport, IntegratorRun, Limits, Spread, print};
@@ -194,11 +197,31 @@ fn timed_run(
     ))
 }
 
+/// The caps on `--grid`, `--points`, `--steps` and `--static-objects` (see [`crate::limits`]).
+fn check_counts(args: &BenchSimArgs) -> Result<(), OverLimit> {
+    cap!("--grid", args.grid, MAX_BENCH_GRID, "nodes per side")?;
+    cap!("--points", args.points, MAX_GEN_POINTS, "points")?;
+    cap!("--steps", args.steps, MAX_STEPS, "steps")?;
+    cap!(
+        "--static-objects",
+        args.static_objects,
+        MAX_STATIC_OBJECTS,
+        "objects"
+    )?;
+    cap!(
+        "--points × (1 + --static-objects)",
+        args.points * (1 + args.static_objects),
+        MAX_GEN_POINTS,
+        "points"
+    )
+}
+
 /// Run the benchmark.
 pub fn run(args: &BenchSimArgs) -> anyhow::Result<BenchSimReport> {
     anyhow::ensure!(args.grid >= 8, "--grid must be at least 8");
     anyhow::ensure!(args.points >= 100, "--points must be at least 100");
     anyhow::ensure!(args.steps >= 1, "--steps must be at least 1");
+    check_counts(args)?;
     anyhow::ensure!(
         args.dt.is_finite() && args.dt > 0.0,
         "--dt must be positive"
@@ -321,5 +344,38 @@ mod tests {
             let msg = format!("{:#}", run(&cli.args).unwrap_err());
             assert!(msg.contains("--band-cells"), "{v}: {msg}");
         }
+    }
+}
+
+#[cfg(test)]
+mod limit_tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: BenchSimArgs,
+    }
+
+    fn error_of(flags: &[&str]) -> String {
+        let cli = Cli::parse_from(std::iter::once("bench-sim").chain(flags.iter().copied()));
+        run(&cli.args).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn counts_over_their_caps_are_named_errors() {
+        assert_eq!(
+            error_of(&["--steps", "1000001"]),
+            "--steps = 1000001 is over the limit of 1000000 steps (MAX_STEPS)"
+        );
+        assert!(error_of(&["--points", "20000001"]).contains("(MAX_GEN_POINTS)"));
+        assert!(error_of(&["--grid", "257"]).starts_with("--grid = 257"));
+        assert!(error_of(&["--static-objects", "101"]).contains("(MAX_STATIC_OBJECTS)"));
+        assert_eq!(
+            error_of(&["--points", "1000000", "--static-objects", "20"]),
+            "--points × (1 + --static-objects) = 21000000 is over the limit of 20000000 points (MAX_GEN_POINTS)"
+        );
     }
 }

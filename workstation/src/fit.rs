@@ -273,6 +273,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         "--surface-samples must be at most {MAX_SURFACE_SAMPLES} (got {})",
         args.surface_samples
     );
+    crate::cap!(
+        "--error-samples",
+        args.error_samples,
+        MAX_SURFACE_SAMPLES,
+        "samples"
+    )?;
     anyhow::ensure!(
         args.noise.is_finite() && args.noise >= 0.0,
         "--noise must be finite and ≥ 0 (got {})",
@@ -535,7 +541,8 @@ pub struct MeshErrorReport {
     pub coverage: Distances,
 }
 
-/// Largest `--samples` of `mesh-error` (and `--surface-samples` of `fit`): 10⁷ per side.
+/// Largest `--samples` of `mesh-error` (and `--surface-samples` and `--error-samples` of `fit`):
+/// 10⁷ per side.
 pub const MAX_SURFACE_SAMPLES: usize = 10_000_000;
 
 /// Run `mesh-error`.

@@ -8,6 +8,7 @@ pub mod bench_force;
 pub mod bench_sim;
 pub mod fit;
 pub mod latency;
+pub mod limits;
 pub mod live;
 pub mod logging;
 pub mod plot;

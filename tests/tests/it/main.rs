@@ -1,7 +1,9 @@
 //! End-to-end tests on loopback: the real binaries as processes, and the workstation's threads
-//! against in-process servers with the fake device. One test binary.
+//! against in-process servers with the fake device; and `deploy/` (configs, units, udev rules,
+//! the netem script). One test binary.
 
 mod latency;
+mod deploy;
 mod live;
 mod server_process;
 mod window;

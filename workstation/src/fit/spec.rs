@@ -7,6 +7,8 @@ use anyhow::{Context, bail, ensure};
 use glam::DVec3;
 use sim_core::sampling::Shape;
 
+use crate::limits::MAX_GEN_POINTS;
+
 /// Where the points come from.
 #[derive(Debug, Clone, PartialEq)]
 pub enum InputSpec {
@@ -140,6 +142,7 @@ pub fn parse_input(s: &str) -> anyhow::Result<InputSpec> {
         .parse()
         .with_context(|| format!("generator {s:?}: point count {n_str:?}"))?;
     ensure!(n >= 1, "generator {s:?}: needs at least one point");
+    crate::cap!(format!("generator {s:?}: N"), n, MAX_GEN_POINTS, "points")?;
     let params = numbers(&parts[1..].join(":"), ':', s)?;
     Ok(InputSpec::Generated {
         shape: shape(parts[0], &params)?,
@@ -224,6 +227,14 @@ mod tests {
         ] {
             assert!(parse_input(s).is_err(), "{s}");
         }
+        let e = parse_input("gen:sphere:1:1000000000000")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "generator \"gen:sphere:1:1000000000000\": N = 1000000000000 is over the limit of 20000000 points (MAX_GEN_POINTS)"
+        );
+        assert!(parse_input(&format!("gen:sphere:1:{MAX_GEN_POINTS}")).is_ok());
         for s in ["sphere", "sphere:x", "torus:1", "mesh:", "sphere:nan"] {
             assert!(parse_reference(s).is_err(), "{s}");
         }

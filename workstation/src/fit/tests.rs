@@ -169,3 +169,14 @@ fn mesh_error_measures_fits_mesh_like_fit_does_and_names_bad_input() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn error_samples_over_the_cap_is_a_named_error() {
+    let e = run(&args(&["gen:sphere:1:100", "--error-samples", "10000001"]))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "--error-samples = 10000001 is over the limit of 10000000 samples (MAX_SURFACE_SAMPLES)"
+    );
+}

@@ -213,3 +213,31 @@ fn a_released_rope_leaves_its_ridge_and_spring_back_does_not() {
     );
     let _ = std::fs::remove_dir_all(&tmp);
 }
+
+#[test]
+fn counts_over_their_caps_name_the_field_and_the_limit() {
+    let msg = Script::parse(&BASE.replace("points = 800", "points = 20000001"))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        msg,
+        "object[0].generate.points: 20000001 is over the limit of 20000000 points (MAX_GEN_POINTS)"
+    );
+    let rope = "[[op]]\nkind = \"rope\"\npath = [[0.0, 0.0, 0.05]]\nradius = 0.01\nstrength = 1.0\nprofile = \"gaussian\"\n";
+    let msg = error_of(&format!("{rope}steps = 1000001\n"));
+    assert_eq!(
+        msg,
+        "op[0].steps: 1000001 is over the limit of 1000000 steps (MAX_STEPS)"
+    );
+    let msg = error_of("[[op]]\nkind = \"relax\"\nsteps = 1000001\n");
+    assert!(
+        msg.starts_with("op[0].steps: 1000001") && msg.contains("(MAX_STEPS)"),
+        "{msg}"
+    );
+    assert!(
+        Script::parse(&format!(
+            "{BASE}[[op]]\nkind = \"relax\"\nsteps = 1000000\n"
+        ))
+        .is_ok()
+    );
+}

@@ -5,6 +5,7 @@ use std::collections::HashSet;
 use glam::DVec3;
 
 use super::script::{Op, Script, ScriptError, profile_of};
+use crate::limits::{MAX_GEN_POINTS, MAX_STEPS, check};
 
 fn err(field: impl Into<String>, reason: impl Into<String>) -> ScriptError {
     ScriptError {
@@ -19,6 +20,17 @@ fn positive(field: String, x: f64) -> Result<(), ScriptError> {
     } else {
         Err(err(field, format!("must be positive and finite (got {x})")))
     }
+}
+
+/// A count over its cap (see [`crate::limits`]), as a script error naming the field.
+fn capped(
+    field: String,
+    value: usize,
+    limit: usize,
+    constant: &'static str,
+    unit: &'static str,
+) -> Result<(), ScriptError> {
+    check(field, value, limit, unit, constant).map_err(|e| err(e.field.clone(), e.reason()))
 }
 
 fn finite3(field: String, v: [f64; 3]) -> Result<DVec3, ScriptError> {
@@ -74,6 +86,13 @@ impl Script {
                     if g.points < 50 {
                         return Err(err(f("generate.points"), "must be at least 50"));
                     }
+                    capped(
+                        f("generate.points"),
+                        g.points,
+                        MAX_GEN_POINTS,
+                        "MAX_GEN_POINTS",
+                        "points",
+                    )?;
                 }
                 _ => return Err(err(f("file"), "give exactly one of `file` and `generate`")),
             }
@@ -136,9 +155,11 @@ impl Script {
                     profile,
                     table,
                     sheet,
+                    steps,
                     ..
                 } => {
                     needs_region()?;
+                    capped(f("steps"), *steps, MAX_STEPS, "MAX_STEPS", "steps")?;
                     if path.is_empty() {
                         return Err(err(f("path"), "needs at least one point"));
                     }
@@ -162,7 +183,11 @@ impl Script {
                         finite3(f("sheet"), *s)?;
                     }
                 }
-                Op::Relax { .. } | Op::EndStroke => needs_region()?,
+                Op::Relax { steps } => {
+                    needs_region()?;
+                    capped(f("steps"), *steps, MAX_STEPS, "MAX_STEPS", "steps")?;
+                }
+                Op::EndStroke => needs_region()?,
                 Op::Paint {
                     object,
                     center,
