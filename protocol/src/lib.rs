@@ -13,6 +13,8 @@
 //!   channel: hello/welcome, configuration, clock-sync pings, statistics, bye, errors.
 //! - [`clock`]: the NTP-style clock-offset estimator with a hard uncertainty bound.
 //! - [`seq`]: the sequence tracker (loss, reordering, duplicates) that also serves as replay window.
+//! - [`deadband`]: perceptual deadbands that thin the cursor and force streams (Weber fraction,
+//!   floor, heartbeat under the watchdog's fade start).
 //! - [`sim_link`]: a simulated link on a virtual clock (delay, jitter, loss, reordering,
 //!   duplication) for deterministic tests and studies of the whole exchange.
 //!
@@ -21,6 +23,7 @@
 
 pub mod clock;
 pub mod control;
+pub mod deadband;
 pub mod error;
 pub mod mac;
 pub mod model;
@@ -32,6 +35,7 @@ mod wire;
 
 pub use clock::{ClockEstimate, ClockEstimator, ClockSample};
 pub use control::{Control, FrameDecoder};
+pub use deadband::{CursorDeadband, Deadband, DeadbandParams, ForceDeadband};
 pub use error::{DecodeError, Reject, RejectCounts};
 pub use mac::SessionKey;
 pub use model::ModelRenderer;
