@@ -39,6 +39,7 @@ fn run(latency_ms: u64, loss: f64, outage: std::ops::Range<u64>, ticks: u64) -> 
         max_stiffness_n_per_m: 700.0,
         max_damping_n_s_per_m: 5.0,
         estop_button_mask: 0,
+        passivity: false,
     });
     core.on_event(0, SessionEvent::Start);
     let wall = |c: &CursorSample| ForceCommand {
