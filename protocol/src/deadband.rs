@@ -113,6 +113,11 @@ pub struct CursorDeadband {
 }
 
 impl CursorDeadband {
+    /// The Weber fraction (0: off).
+    pub fn weber(&self) -> f32 {
+        self.k
+    }
+
     /// Weber fraction `k` (≤ 0 or non-finite: off), heartbeat [`HEARTBEAT_NS`].
     pub fn new(k: f32) -> Self {
         Self::with_heartbeat(k, HEARTBEAT_NS)
@@ -188,6 +193,11 @@ pub struct ForceDeadband {
 }
 
 impl ForceDeadband {
+    /// The Weber fraction (0: off).
+    pub fn weber(&self) -> f32 {
+        self.k
+    }
+
     /// Weber fraction `k` (≤ 0 or non-finite: off), heartbeat [`HEARTBEAT_NS`].
     pub fn new(k: f32) -> Self {
         Self::with_heartbeat(k, HEARTBEAT_NS)
