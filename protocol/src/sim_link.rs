@@ -305,7 +305,10 @@ mod tests {
         assert!(lags.iter().all(|l| (10..=15).contains(l)), "{lags:?}");
         // Delivered on the first whole ms at or after arrival: lags 11 and 15 are each a
         // fifth of the draws.
-        assert!(lags.contains(&11) && lags.contains(&15), "uses the whole range");
+        assert!(
+            lags.contains(&11) && lags.contains(&15),
+            "uses the whole range"
+        );
     }
 
     #[test]

@@ -22,8 +22,8 @@ use glam::{DQuat, DVec3};
 use haptics_client::HotSender;
 use haptics_client::client::ClientError;
 use hdrhistogram::Histogram;
-use protocol::{CursorSample, ForceCommand, ForceDeadband};
 use protocol::packet::ModelKind;
+use protocol::{CursorSample, ForceCommand, ForceDeadband};
 use sim_core::grid::ScalarGrid;
 use sim_core::haptic::{ContactModel, FieldContactParams, FieldForce, HapticOutput};
 use sim_core::probe::{
@@ -534,11 +534,11 @@ friction = 0.0
         let cmd = |o: &HapticOutput| o.to_command(0, 0);
         // Off: every command.
         assert!((0..5).all(|t| deadband_gate(&mut db, 0.0, t * 1_000_000, &cmd(&out))));
-        // K = 0.1: the same 1 N rope force is held until the 10 ms heartbeat ...
+        // K = 0.1: the same 1 N rope force is held until the 5 ms heartbeat ...
         let sent: Vec<u64> = (5..30)
             .filter(|&t| deadband_gate(&mut db, 0.1, t * 1_000_000, &cmd(&out)))
             .collect();
-        assert_eq!(sent, [5, 15, 25]);
+        assert_eq!(sent, [5, 10, 15, 20, 25]);
         // ... a felt change (+20 %) goes at once ...
         out.force *= 1.2;
         out.model.stiffness *= 1.2;

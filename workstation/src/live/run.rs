@@ -46,7 +46,7 @@ pub struct RunArgs {
     pub seconds: Option<f64>,
     /// Perceptual deadband on the force commands (Weber fraction K in [0, 1]; 0 = send one
     /// per cursor): a command goes out only when its force changed by more than K of itself
-    /// (or K × 0.5 N), its local model changed, or 10 ms passed. 0.1 cuts a steady contact's
+    /// (or K × 0.5 N), its local model changed, or 5 ms passed. 0.1 cuts a steady contact's
     /// commands by ~90 % (see docs/BENCHMARKS.md, "What delay does to touch").
     #[arg(long, value_name = "K", default_value_t = 0.0)]
     pub force_deadband: f64,
