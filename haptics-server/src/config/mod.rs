@@ -253,7 +253,7 @@ impl ServerConfig {
         if !(f.smoothing_alpha.is_finite() && (0.0..1.0).contains(&f.smoothing_alpha)) {
             invalid("safety.smoothing_alpha", "must be in [0, 1)")?;
         }
-        if s.passivity && !(f.max_damping_n_s_per_m > 0.0) {
+        if s.passivity && f.max_damping_n_s_per_m <= 0.0 {
             invalid(
                 "servo.passivity",
                 "needs safety.max_damping_n_s_per_m > 0 (it bounds the controller's damping)",

@@ -75,7 +75,7 @@ impl Passivity {
     /// `max_damping` N·s/m, for a period of `period_s`.
     pub fn control(&self, v: Vec3, period_s: f32, max_damping: f32) -> Vec3 {
         let v2 = v.length_squared();
-        if self.energy_j >= 0.0 || !(v2 > 0.0) || !v2.is_finite() {
+        if self.energy_j >= 0.0 || v2 <= 0.0 || !v2.is_finite() {
             return Vec3::ZERO;
         }
         let alpha = (-self.energy_j / (f64::from(period_s) * f64::from(v2))) as f32;

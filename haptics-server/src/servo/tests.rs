@@ -451,7 +451,10 @@ fn passivity_control_makes_a_delayed_stiff_spring_passive() {
     // received.
     let (active, deficit, peak) = delayed_spring(10, false);
     assert!(active > 0.1, "generated {active} J");
-    assert!(deficit < -0.1 && peak >= 3.3 - 1e-5, "{deficit} J, {peak} N");
+    assert!(
+        deficit < -0.1 && peak >= 3.3 - 1e-5,
+        "{deficit} J, {peak} N"
+    );
     // With it the run is passive: what the device delivered over the press cycle is ≤ 0
     // (to 20 µJ); the observer's deficit peaks at ~2 mJ as the stylus leaves the wall and
     // is paid back by the bounded drag right after. The contact no longer reaches the clamp.
@@ -463,5 +466,8 @@ fn passivity_control_makes_a_delayed_stiff_spring_passive() {
     // though it still takes most of the excess out.
     let (late, _, _) = delayed_spring(30, true);
     let (late_off, _, _) = delayed_spring(30, false);
-    assert!(late > 1e-3 && late < late_off / 2.0, "{late} vs {late_off} J");
+    assert!(
+        late > 1e-3 && late < late_off / 2.0,
+        "{late} vs {late_off} J"
+    );
 }
