@@ -19,6 +19,7 @@ fn params() -> ServoParams {
         max_stiffness_n_per_m: 700.0,
         max_damping_n_s_per_m: 5.0,
         estop_button_mask: 0,
+        passivity: false,
     }
 }
 

@@ -63,6 +63,7 @@ impl ServerOptions {
                     max_stiffness_n_per_m: f32::INFINITY,
                     max_damping_n_s_per_m: f32::INFINITY,
                     estop_button_mask: 0,
+                    passivity: false,
                 },
                 rt: RtRequest {
                     fifo_priority: None,
@@ -72,6 +73,7 @@ impl ServerOptions {
                 spin: Duration::from_micros(50),
                 log_every: Duration::ZERO,
                 record: None,
+                cursor_deadband: 0.0,
             },
             net: NetSettings::default(),
         })

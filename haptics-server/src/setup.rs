@@ -178,6 +178,7 @@ pub fn driver_config(cfg: &ServerConfig) -> DriverConfig {
             max_stiffness_n_per_m: f.max_stiffness_n_per_m,
             max_damping_n_s_per_m: f.max_damping_n_s_per_m,
             estop_button_mask: s.estop_button_mask,
+            passivity: s.passivity,
         },
         rt: RtRequest {
             fifo_priority: (s.realtime_priority > 0).then_some(s.realtime_priority),
@@ -187,6 +188,7 @@ pub fn driver_config(cfg: &ServerConfig) -> DriverConfig {
         spin: Duration::from_micros(u64::from(s.spin_us)),
         log_every: Duration::from_secs_f32(cfg.telemetry.log_interval_s),
         record: cfg.telemetry.record.clone(),
+        cursor_deadband: cfg.network.cursor_deadband,
     }
 }
 

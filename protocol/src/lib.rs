@@ -13,28 +13,36 @@
 //!   channel: hello/welcome, configuration, clock-sync pings, statistics, bye, errors.
 //! - [`clock`]: the NTP-style clock-offset estimator with a hard uncertainty bound.
 //! - [`seq`]: the sequence tracker (loss, reordering, duplicates) that also serves as replay window.
+//! - [`deadband`]: perceptual deadbands that thin the cursor and force streams (Weber fraction,
+//!   floor, heartbeat under the watchdog's fade start).
+//! - [`sim_link`]: a simulated link on a virtual clock (delay, jitter, loss, reordering,
+//!   duplication) for deterministic tests and studies of the whole exchange.
 //!
 //! A malformed, forged, replayed or out-of-range packet is rejected with a specific
 //! [`DecodeError`] variant; nothing here panics on any input.
 
 pub mod clock;
 pub mod control;
+pub mod deadband;
 pub mod error;
 pub mod mac;
 pub mod model;
 pub mod packet;
 pub mod seq;
 pub mod session;
+pub mod sim_link;
 mod wire;
 
 pub use clock::{ClockEstimate, ClockEstimator, ClockSample};
 pub use control::{Control, FrameDecoder};
+pub use deadband::{CursorDeadband, Deadband, DeadbandParams, ForceDeadband};
 pub use error::{DecodeError, Reject, RejectCounts};
 pub use mac::SessionKey;
 pub use model::ModelRenderer;
 pub use packet::{Body, CursorSample, ForceAck, ForceCommand, LocalModel, ModelKind, Packet};
 pub use seq::{Arrival, SequenceStats, SequenceTracker};
 pub use session::{Inbound, Outbound};
+pub use sim_link::{LinkCounters, LinkParams, SimLink};
 
 /// Version byte carried in every packet header and in `Hello`/`Welcome`.
 pub const PROTOCOL_VERSION: u8 = 3;

@@ -6,6 +6,8 @@
 
 pub mod bench_force;
 pub mod bench_sim;
+#[cfg(feature = "demo-server")]
+pub mod delay_study;
 pub mod fit;
 pub mod latency;
 pub mod limits;

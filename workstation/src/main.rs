@@ -55,6 +55,11 @@ enum Command {
     UdpEcho(workstation::latency::UdpEchoArgs),
     /// Time the haptic queries (field force, shaped probe, B-spline sculpt tick) with their force error.
     BenchForce(workstation::bench_force::BenchForceArgs),
+    /// What network delay and loss do to a stiff contact, per rendering method (held force,
+    /// EWMA, local model, local model + passivity), on a virtual clock; writes a report and
+    /// plots to --out.
+    #[cfg(feature = "demo-server")]
+    DelayStudy(workstation::delay_study::DelayStudyArgs),
 }
 
 fn main() -> ExitCode {
@@ -107,6 +112,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::UdpEcho(args) => workstation::latency::udp_echo(&args),
+        #[cfg(feature = "demo-server")]
+        Command::DelayStudy(args) => {
+            let report = workstation::delay_study::run(&args)?;
+            workstation::delay_study::print(&report, args.json)
+        }
         Command::Status => {
             workstation::status::print();
             Ok(())

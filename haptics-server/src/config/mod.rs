@@ -49,6 +49,9 @@ pub struct ServoSection {
     pub mlockall: bool,
     /// Buttons (bit mask) that latch the emergency stop; 0 = none.
     pub estop_button_mask: u16,
+    /// Passivity observer/controller on the output (damping bounded by
+    /// `safety.max_damping_n_s_per_m`).
+    pub passivity: bool,
 }
 
 impl Default for ServoSection {
@@ -60,6 +63,7 @@ impl Default for ServoSection {
             cpu: None,
             mlockall: false,
             estop_button_mask: 0,
+            passivity: false,
         }
     }
 }
@@ -123,6 +127,8 @@ pub struct NetworkSection {
     pub idle_timeout_ms: u64,
     /// Send `Stats` this often, ms.
     pub stats_interval_ms: u64,
+    /// Perceptual deadband on the cursor stream, Weber fraction in [0, 1]; 0 = every tick.
+    pub cursor_deadband: f32,
 }
 
 impl Default for NetworkSection {
@@ -135,6 +141,7 @@ impl Default for NetworkSection {
             authorized_clients: None,
             idle_timeout_ms: 2000,
             stats_interval_ms: 1000,
+            cursor_deadband: 0.0,
         }
     }
 }
@@ -250,7 +257,16 @@ impl ServerConfig {
         if !(f.smoothing_alpha.is_finite() && (0.0..1.0).contains(&f.smoothing_alpha)) {
             invalid("safety.smoothing_alpha", "must be in [0, 1)")?;
         }
+        if s.passivity && f.max_damping_n_s_per_m <= 0.0 {
+            invalid(
+                "servo.passivity",
+                "needs safety.max_damping_n_s_per_m > 0 (it bounds the controller's damping)",
+            )?;
+        }
         let n = &self.network;
+        if !(n.cursor_deadband.is_finite() && (0.0..=1.0).contains(&n.cursor_deadband)) {
+            invalid("network.cursor_deadband", "must be in [0, 1] (0 = off)")?;
+        }
         if !(50..=600_000).contains(&n.idle_timeout_ms) {
             invalid("network.idle_timeout_ms", "must be in 50 … 600000 ms")?;
         }

@@ -45,3 +45,24 @@ fn the_example_config_parses_and_is_valid() {
     let c = ServerConfig::from_toml(&text, path).unwrap();
     c.validate().unwrap();
 }
+
+#[test]
+fn passivity_and_cursor_deadband_are_checked() {
+    let c = ServerConfig::from_toml(
+        "[servo]\npassivity = true\n[network]\ncursor_deadband = 0.1\n",
+        "c.toml",
+    )
+    .unwrap();
+    c.validate().unwrap();
+    assert!(c.servo.passivity && c.network.cursor_deadband == 0.1);
+    let c = ServerConfig::from_toml(
+        "[servo]\npassivity = true\n[safety]\nmax_damping_n_s_per_m = 0.0\n",
+        "c.toml",
+    )
+    .unwrap();
+    let e = c.validate().unwrap_err().to_string();
+    assert!(e.contains("servo.passivity"), "{e}");
+    let c = ServerConfig::from_toml("[network]\ncursor_deadband = 1.5\n", "c.toml").unwrap();
+    let e = c.validate().unwrap_err().to_string();
+    assert!(e.contains("network.cursor_deadband"), "{e}");
+}

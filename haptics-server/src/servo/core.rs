@@ -6,7 +6,9 @@
 //! 3. [`ServoCore::tick`]`(now, sample)` with the device reading; it returns the cursor to
 //!    publish and the force to write: the newest command's local model rendered at the
 //!    *current* position ([`protocol::ModelRenderer`]), optionally smoothed
-//!    (`E ← αE + (1−α)F`), then passed through the [`Safety`] stages.
+//!    (`E ← αE + (1−α)F`), plus the passivity controller's damping when
+//!    [`ServoParams::passivity`] is on ([`Passivity`]; its observer always runs), then passed
+//!    through the [`Safety`] stages.
 //!
 //! Everything is plain arithmetic on fixed-size state, so a tick costs well under a microsecond
 //! and the same inputs give bit-identical outputs.
@@ -15,6 +17,7 @@ use glam::Vec3;
 use protocol::control::Config;
 use protocol::{CursorSample, ForceAck, ForceCommand, ModelKind, ModelRenderer};
 
+use super::passivity::Passivity;
 use super::safety::{Safety, SafetyOutcome, SafetyParams, Stage};
 use crate::device::DeviceSample;
 
@@ -37,6 +40,9 @@ pub struct ServoParams {
     pub max_damping_n_s_per_m: f32,
     /// Buttons that latch the emergency stop while pressed (0 = none).
     pub estop_button_mask: u16,
+    /// Add the passivity controller's damping (bounded by `max_damping_n_s_per_m`) whenever
+    /// the observer sees the output generating energy ([`Passivity`]).
+    pub passivity: bool,
 }
 
 impl ServoParams {
@@ -82,6 +88,7 @@ pub struct ServoCore {
     ack: Option<ForceAck>,
     smoothed: Vec3,
     safety: Safety,
+    passivity: Passivity,
     session_up: bool,
     tick: u32,
 }
@@ -97,6 +104,7 @@ impl ServoCore {
             command: None,
             ack: None,
             smoothed: Vec3::ZERO,
+            passivity: Passivity::new(),
             session_up: false,
             tick: 0,
         }
@@ -113,6 +121,7 @@ impl ServoCore {
                 self.ack = None;
                 self.smoothed = Vec3::ZERO;
                 self.renderer.reset();
+                self.passivity.reset();
                 self.safety.session_started();
             }
             SessionEvent::End => {
@@ -197,7 +206,17 @@ impl ServoCore {
             } else {
                 self.smoothed
             };
-        let safety = self.safety.apply(now_ns, wanted, since);
+        self.passivity
+            .observe(sample.position, wanted != Vec3::ZERO);
+        let pc = if self.params.passivity {
+            let period_s = self.params.period_ns() as f32 * 1e-9;
+            self.passivity
+                .control(sample.velocity, period_s, self.params.max_damping_n_s_per_m)
+        } else {
+            Vec3::ZERO
+        };
+        let safety = self.safety.apply(now_ns, wanted + pc, since);
+        self.passivity.record(sample.position, safety.force, pc);
         let cursor = CursorSample {
             position: sample.position,
             orientation: sample.orientation,
@@ -225,6 +244,11 @@ impl ServoCore {
     /// The smoothed force before safety, N.
     pub fn smoothed(&self) -> Vec3 {
         self.smoothed
+    }
+
+    /// The passivity observer (and controller state).
+    pub fn passivity(&self) -> &Passivity {
+        &self.passivity
     }
 
     /// A session is up.

@@ -2,7 +2,8 @@
 //!
 //! Per period: wait for the absolute deadline ([`rt::wait_until`]: sleep, then a short spin),
 //! drain the session-event and force-command rings (wait-free `rtrb` pops), read the device,
-//! [`ServoCore::tick`], publish the cursor (one non-blocking `send_to` for UDP, or a ring push
+//! [`ServoCore::tick`], publish the cursor unless the perceptual deadband holds it back
+//! ([`CursorDeadband`], off by default; then one non-blocking `send_to` for UDP, or a ring push
 //! plus an `unpark` of the QUIC sender thread), write the force, push a [`TickRecord`] to the
 //! telemetry ring. No allocation, no lock, no blocking call inside the tick; full rings drop
 //! (telemetry) or keep the newest (commands are drained every tick, so they never fill).
@@ -18,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use protocol::packet::MAX_PACKET_BYTES;
-use protocol::{Body, ForceCommand, Outbound, SessionKey};
+use protocol::{Body, CursorDeadband, ForceCommand, Outbound, SessionKey};
 
 use super::core::{ServoCore, ServoParams, SessionEvent};
 use super::rt::{self, RtReport, RtRequest};
@@ -91,6 +92,8 @@ pub struct DriverConfig {
     pub log_every: Duration,
     /// Record the session here.
     pub record: Option<PathBuf>,
+    /// Perceptual deadband on published cursors (Weber fraction; 0 = every tick).
+    pub cursor_deadband: f32,
 }
 
 /// The running servo and telemetry threads.
@@ -184,6 +187,7 @@ pub fn spawn<D: Device + 'static>(
                     clock,
                     last_sample: DeviceSample::default(),
                     buf: [0; MAX_PACKET_BYTES],
+                    deadband: CursorDeadband::new(cfg.cursor_deadband),
                 };
                 lp.run(&mut device, &stop, cfg.params.period_ns(), cfg.spin);
                 device.stop();
@@ -218,6 +222,7 @@ struct Loop {
     clock: MonoClock,
     last_sample: DeviceSample,
     buf: [u8; MAX_PACKET_BYTES],
+    deadband: CursorDeadband,
 }
 
 impl Loop {
@@ -287,6 +292,7 @@ impl Loop {
             match msg {
                 ServoMsg::Start { session, key } => {
                     self.outbound = Some(Outbound::new(session, key));
+                    self.deadband.reset();
                     self.peer = None;
                     self.core.on_event(now_ns, SessionEvent::Start);
                 }
@@ -336,6 +342,11 @@ impl Loop {
         let Some(outbound) = &mut self.outbound else {
             return false;
         };
+        // The deadband holds back cursors the workstation would not feel the difference of
+        // (off by default); the heartbeat (10 ms) keeps the stream alive.
+        if !self.deadband.should_send(now_ns, cursor) {
+            return false;
+        }
         match &mut self.sink {
             CursorSink::None => false,
             CursorSink::Udp(socket) => {
@@ -356,5 +367,98 @@ impl Loop {
                 ok
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::fake::{FakeDevice, FakeParams, HandPath};
+    use crate::servo::SafetyParams;
+
+    /// Drive the loop's own tick on a virtual clock (1 kHz, `ms` ticks) with the hand
+    /// sliding 15 mm/s and pressing the button from 400 to 600 ms; the published cursors.
+    fn published(deadband: f32, ms: u64) -> Vec<protocol::CursorSample> {
+        let (tx, mut rx) = rtrb::RingBuffer::new(4096);
+        let (mut events, event_rx) = rtrb::RingBuffer::new(8);
+        let (_commands, command_rx) = rtrb::RingBuffer::new(8);
+        let (record_tx, _records) = rtrb::RingBuffer::new(4096);
+        let params = ServoParams {
+            rate_hz: 1000,
+            safety: SafetyParams::default(),
+            smoothing_alpha: 0.0,
+            device_max_force_n: 3.3,
+            max_stiffness_n_per_m: 700.0,
+            max_damping_n_s_per_m: 5.0,
+            estop_button_mask: 0,
+            passivity: false,
+        };
+        let mut lp = Loop {
+            core: ServoCore::new(params),
+            sink: CursorSink::Ring(tx, std::thread::current()),
+            outbound: None,
+            peer: None,
+            command_rx,
+            event_rx,
+            record_tx,
+            dropped: Arc::default(),
+            clock: MonoClock::new(),
+            last_sample: DeviceSample::default(),
+            buf: [0; MAX_PACKET_BYTES],
+            deadband: CursorDeadband::new(deadband),
+        };
+        let path: Arc<[(f32, Vec3, u16)]> = vec![
+            (0.0, Vec3::ZERO, 0),
+            (0.4, Vec3::X * 0.006, 1),
+            (0.6, Vec3::X * 0.009, 0),
+            (10.0, Vec3::X * 0.15, 0),
+        ]
+        .into();
+        let mut dev = FakeDevice::new(FakeParams {
+            path: HandPath::Recorded(path),
+            tremor_m: 0.0,
+            ..FakeParams::default()
+        });
+        events
+            .push(ServoMsg::Start {
+                session: 1,
+                key: None,
+            })
+            .unwrap();
+        let mut out = Vec::new();
+        for t in 1..=ms {
+            lp.tick(&mut dev, t * 1_000_000);
+            while let Ok(d) = rx.pop() {
+                let p = protocol::Packet::decode(&d.bytes[..d.len]).unwrap();
+                if let protocol::Body::Cursor(c) = p.body {
+                    out.push(c);
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_cursor_deadband_thins_the_stream_but_sends_every_button_change() {
+        let all = published(0.0, 1000);
+        assert_eq!(all.len(), 1000, "off: every tick");
+        let thin = published(0.1, 1000);
+        assert!(thin.len() < 250, "{} of 1000 sent", thin.len());
+        assert!(thin.len() >= 100, "the 10 ms heartbeat at least");
+        // Every tick's button state reached the workstation in order: the press and release.
+        let presses = |cs: &[protocol::CursorSample]| {
+            cs.windows(2)
+                .filter(|w| w[0].buttons != w[1].buttons)
+                .count()
+        };
+        assert_eq!(presses(&thin), presses(&all));
+        assert_eq!(presses(&all), 2);
+        // The largest gap between published ticks is the heartbeat.
+        let gap = thin
+            .windows(2)
+            .map(|w| w[1].servo_tick - w[0].servo_tick)
+            .max()
+            .unwrap();
+        assert!(gap <= 10, "{gap}");
     }
 }

@@ -3,10 +3,12 @@
 
 pub mod core;
 pub mod driver;
+pub mod passivity;
 pub mod rt;
 pub mod safety;
 
 pub use self::core::{ServoCore, ServoParams, SessionEvent, TickOutput};
+pub use passivity::Passivity;
 pub use safety::{Safety, SafetyParams, Stage};
 
 #[cfg(test)]

@@ -19,6 +19,7 @@ fn params() -> ServoParams {
         max_stiffness_n_per_m: 700.0,
         max_damping_n_s_per_m: 5.0,
         estop_button_mask: 0b10,
+        passivity: false,
     }
 }
 
@@ -398,4 +399,75 @@ fn releasing_an_emergency_stop_that_is_not_latched_changes_nothing() {
     assert_eq!(core.safety().stage(), Stage::Engaged);
     let f = run(&mut core, &mut t, 5, Some(constant(Vec3::X)), at(0.0));
     assert!((f.x - 1.0).abs() < 1e-6, "{f}");
+}
+
+/// A stiff spring wall at y = 0 computed from the cursor `delay_ms` old and held (no model,
+/// the zero-order hold of a delayed force), closed with the fake hand pressing 10 mm into it
+/// (200 N/m grip): one press cycle, 1.6 s. Returns (energy the device delivered to the hand, J, the
+/// observer's lowest contact energy, J, the largest force, N).
+fn delayed_spring(delay_ms: u64, passivity: bool) -> (f64, f64, f32) {
+    use crate::device::Device;
+    use crate::device::fake::{FakeDevice, FakeParams, HandPath};
+    let mut dev = FakeDevice::new(FakeParams {
+        path: HandPath::Press {
+            at: Vec3::new(0.0, 0.01, 0.0),
+            depth: 0.02,
+            approach_s: 0.2,
+            hold_s: 1.0,
+        },
+        tremor_m: 0.0,
+        ..FakeParams::default()
+    });
+    let mut core = ServoCore::new(ServoParams {
+        passivity,
+        ..params()
+    });
+    core.on_event(0, SessionEvent::Start);
+    let mut history = std::collections::VecDeque::new();
+    let (mut delivered, mut last, mut peak) = (0.0f64, None::<(Vec3, Vec3)>, 0.0f32);
+    for tick in 1..=1600u64 {
+        let now = tick * MS;
+        let s = dev.read(now).unwrap();
+        if let Some((x0, f0)) = last {
+            delivered += f64::from(f0.dot(s.position - x0));
+        }
+        history.push_back(s.position.y);
+        if history.len() > delay_ms as usize {
+            let y = history.pop_front().unwrap();
+            core.on_command(now, constant(Vec3::Y * (700.0 * -y).max(0.0)));
+        }
+        let f = core.tick(now, &s).safety.force;
+        dev.write_force(f).unwrap();
+        peak = peak.max(f.length());
+        last = Some((s.position, f));
+    }
+    (delivered, core.passivity().min_energy_j(), peak)
+}
+
+#[test]
+fn passivity_control_makes_a_delayed_stiff_spring_passive() {
+    // A 10 ms round trip without the controller: the held spring force lags the stylus, the
+    // contact rings at the 3.3 N clamp and hands the user a quarter of a joule it never
+    // received.
+    let (active, deficit, peak) = delayed_spring(10, false);
+    assert!(active > 0.1, "generated {active} J");
+    assert!(
+        deficit < -0.1 && peak >= 3.3 - 1e-5,
+        "{deficit} J, {peak} N"
+    );
+    // With it the run is passive: what the device delivered over the press cycle is ≤ 0
+    // (to 20 µJ); the observer's deficit peaks at ~2 mJ as the stylus leaves the wall and
+    // is paid back by the bounded drag right after. The contact no longer reaches the clamp.
+    let (passive, deficit, peak) = delayed_spring(10, true);
+    assert!(passive < 2e-5, "generated {passive} J");
+    assert!(deficit > -3e-3, "observed {deficit} J");
+    assert!(peak < 2.5, "{peak} N");
+    // Its damping is bounded (5 N·s/m here): at a 30 ms round trip it no longer keeps up,
+    // though it still takes most of the excess out.
+    let (late, _, _) = delayed_spring(30, true);
+    let (late_off, _, _) = delayed_spring(30, false);
+    assert!(
+        late > 1e-3 && late < late_off / 2.0,
+        "{late} vs {late_off} J"
+    );
 }

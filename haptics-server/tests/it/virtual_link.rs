@@ -1,15 +1,13 @@
 //! The whole exchange on a virtual clock, no sockets, no sleeping: the servo core and the fake
 //! hand (closed loop) at 1 kHz, a "workstation" answering every cursor with a wall model, and
-//! a link between them with latency and seeded loss. Shows the point of local models: the wall
+//! a [`SimLink`] each way with latency and seeded loss. Shows the point of local models: the wall
 //! is rendered at the *current* position, so a 20 ms round trip does not destabilise contact.
-
-use std::collections::VecDeque;
 
 use glam::Vec3;
 use haptics_server::device::Device;
 use haptics_server::device::fake::{FakeDevice, FakeParams, HandPath};
 use haptics_server::servo::{SafetyParams, ServoCore, ServoParams, SessionEvent};
-use protocol::{CursorSample, ForceCommand, LocalModel, ModelKind};
+use protocol::{CursorSample, ForceCommand, LinkParams, LocalModel, ModelKind, SimLink};
 
 const MS: u64 = 1_000_000;
 const K_WALL: f32 = 500.0;
@@ -41,6 +39,7 @@ fn run(latency_ms: u64, loss: f64, outage: std::ops::Range<u64>, ticks: u64) -> 
         max_stiffness_n_per_m: 700.0,
         max_damping_n_s_per_m: 5.0,
         estop_button_mask: 0,
+        passivity: false,
     });
     core.on_event(0, SessionEvent::Start);
     let wall = |c: &CursorSample| ForceCommand {
@@ -59,23 +58,21 @@ fn run(latency_ms: u64, loss: f64, outage: std::ops::Range<u64>, ticks: u64) -> 
             lifetime_us: 100_000,
         },
     };
-    let mut up: VecDeque<(u64, CursorSample)> = VecDeque::new();
-    let mut down: VecDeque<(u64, ForceCommand)> = VecDeque::new();
-    let mut rng = 0x2545_F491_4F6C_DD1Du64;
-    let mut lose = || {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        (rng >> 11) as f64 / (1u64 << 53) as f64 <= loss
+    // One seeded link each way (the same loss both ways, independent streams).
+    let link = |seed| LinkParams {
+        loss,
+        seed,
+        ..LinkParams::delay(latency_ms * MS)
     };
+    let mut up: SimLink<CursorSample> = SimLink::new(link(1));
+    let mut down: SimLink<ForceCommand> = SimLink::new(link(2));
     let mut out = Run {
         trace: Vec::new(),
         max_force: 0.0,
     };
     for tick in 1..=ticks {
         let now = tick * MS;
-        while down.front().is_some_and(|(t, _)| *t <= now) {
-            let (_, cmd) = down.pop_front().unwrap_or_else(|| unreachable!());
+        for cmd in down.deliver(now) {
             core.on_command(now, cmd);
         }
         let s = dev.read(now).unwrap();
@@ -83,14 +80,11 @@ fn run(latency_ms: u64, loss: f64, outage: std::ops::Range<u64>, ticks: u64) -> 
         dev.write_force(o.safety.force).unwrap();
         out.max_force = out.max_force.max(o.safety.force.length());
         out.trace.push((now, s.position.y, o.safety.force.y));
-        if !lose() {
-            up.push_back((now + latency_ms * MS, o.cursor));
-        }
+        up.send(now, o.cursor);
         // The workstation answers what reached it, unless in the outage.
-        while up.front().is_some_and(|(t, _)| *t <= now) {
-            let (_, c) = up.pop_front().unwrap_or_else(|| unreachable!());
-            if !outage.contains(&tick) && !lose() {
-                down.push_back((now + latency_ms * MS, wall(&c)));
+        for c in up.deliver(now) {
+            if !outage.contains(&tick) {
+                down.send(now, wall(&c));
             }
         }
     }

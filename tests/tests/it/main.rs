@@ -2,8 +2,8 @@
 //! against in-process servers with the fake device; and `deploy/` (configs, units, udev rules,
 //! the netem script). One test binary.
 
-mod latency;
 mod deploy;
+mod latency;
 mod live;
 mod server_process;
 mod window;

@@ -8,7 +8,9 @@
 //! returns the output in the device frame plus the [`InputEvent`] the simulation consumes.
 //! [`run`] is the thin driver: it parks on an empty cursor ring, takes the newest cursor (older
 //! ones it skips are counted), loads the snapshots with `ArcSwap::load` (lock-free), sends
-//! through the session's [`HotSender`], pushes the event, and keeps period and work histograms.
+//! through the session's [`HotSender`] unless the perceptual deadband holds the command back
+//! ([`ForceDeadband`], `run --force-deadband`, off by default; [`deadband_gate`]), pushes the
+//! event, and keeps period and work histograms.
 //! Nothing on that path allocates (the histograms are sized at start) or locks, except quinn's
 //! connection lock inside `send_datagram` on QUIC.
 
@@ -20,8 +22,8 @@ use glam::{DQuat, DVec3};
 use haptics_client::HotSender;
 use haptics_client::client::ClientError;
 use hdrhistogram::Histogram;
-use protocol::CursorSample;
 use protocol::packet::ModelKind;
+use protocol::{CursorSample, ForceCommand, ForceDeadband};
 use sim_core::grid::ScalarGrid;
 use sim_core::haptic::{ContactModel, FieldContactParams, FieldForce, HapticOutput};
 use sim_core::probe::{
@@ -349,17 +351,35 @@ pub fn raise_priority() -> &'static str {
     "normal (no real-time permission)"
 }
 
+/// Whether `command` goes out at `now_ns` under the deadband with Weber fraction `k` (which
+/// replaces `deadband` when it changed; `k = 0`: always).
+pub fn deadband_gate(
+    deadband: &mut ForceDeadband,
+    k: f64,
+    now_ns: u64,
+    command: &ForceCommand,
+) -> bool {
+    let wanted = ForceDeadband::new(k as f32);
+    if wanted.weber() != deadband.weber() {
+        *deadband = wanted;
+    }
+    deadband.should_send(now_ns, command)
+}
+
 /// The thread body: runs until `shared` says stop.
 pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) {
     let priority = raise_priority();
     tracing::info!(priority, "force-mapping thread started");
     let mut sender: Option<HotSender> = None;
     let mut clock = LoopTimer::new();
+    let mut deadband = ForceDeadband::new(0.0);
+    let epoch = Instant::now();
     while !shared.stopping() {
         while let Ok(s) = ports.senders.pop() {
             // Rare (once per session); dropping an old sender here is the one free on this path.
             sender = s;
             mapper.field.reset();
+            deadband.reset();
         }
         let mut newest = None;
         let mut skipped = 0u64;
@@ -387,8 +407,12 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
         let (out, event) = mapper.tick(&msg.cursor, field.as_deref(), samples.as_deref(), &tool);
         drop((field, samples, tool));
 
-        if let Some(s) = &mut sender {
-            let cmd = out.to_command(msg.packet_sequence, msg.server_timestamp_ns);
+        let cmd = out.to_command(msg.packet_sequence, msg.server_timestamp_ns);
+        let now_ns = start.duration_since(epoch).as_nanos() as u64;
+        let k = shared.net.force_deadband.get();
+        if sender.is_some() && !deadband_gate(&mut deadband, k, now_ns, &cmd) {
+            shared.net.forces_held.fetch_add(1, Ordering::Relaxed);
+        } else if let Some(s) = &mut sender {
             match s.send_force(&cmd) {
                 Ok(()) => {
                     shared.net.forces_sent.fetch_add(1, Ordering::Relaxed);
@@ -502,6 +526,26 @@ friction = 0.0
         let near = rope_output(DVec3::new(0.01, 0.0, 0.0), DVec3::ZERO, 100.0, 3.0);
         assert!((near.force.x + 1.0).abs() < 1e-12);
         assert_eq!(near.model.kind, ModelKind::Anchor);
+    }
+
+    #[test]
+    fn the_force_deadband_gate_holds_unfelt_commands_and_follows_k() {
+        let mut db = ForceDeadband::new(0.0);
+        let mut out = rope_output(DVec3::new(0.01, 0.0, 0.0), DVec3::ZERO, 100.0, 3.0);
+        let cmd = |o: &HapticOutput| o.to_command(0, 0);
+        // Off: every command.
+        assert!((0..5).all(|t| deadband_gate(&mut db, 0.0, t * 1_000_000, &cmd(&out))));
+        // K = 0.1: the same 1 N rope force is held until the 5 ms heartbeat ...
+        let sent: Vec<u64> = (5..30)
+            .filter(|&t| deadband_gate(&mut db, 0.1, t * 1_000_000, &cmd(&out)))
+            .collect();
+        assert_eq!(sent, [5, 10, 15, 20, 25]);
+        // ... a felt change (+20 %) goes at once ...
+        out.force *= 1.2;
+        out.model.stiffness *= 1.2;
+        assert!(deadband_gate(&mut db, 0.1, 30_000_000, &cmd(&out)));
+        // ... and turning it off sends everything again.
+        assert!(deadband_gate(&mut db, 0.0, 31_000_000, &cmd(&out)));
     }
 
     #[test]

@@ -51,6 +51,12 @@ pub struct RunArgs {
     /// Stop after this many seconds [default: at Ctrl-C].
     #[arg(long)]
     pub seconds: Option<f64>,
+    /// Perceptual deadband on the force commands (Weber fraction K in [0, 1]; 0 = send one
+    /// per cursor): a command goes out only when its force changed by more than K of itself
+    /// (or K × 0.5 N), its local model changed, or 5 ms passed. 0.1 cuts a steady contact's
+    /// commands by ~90 % (see docs/BENCHMARKS.md, "What delay does to touch").
+    #[arg(long, value_name = "K", default_value_t = 0.0)]
+    pub force_deadband: f64,
 }
 
 /// Arguments of `workstation hand-path`.
@@ -111,6 +117,11 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             "--seconds must be positive and at most 1e7 (got {s})"
         );
     }
+    anyhow::ensure!(
+        args.force_deadband.is_finite() && (0.0..=1.0).contains(&args.force_deadband),
+        "--force-deadband must be in [0, 1] (got {})",
+        args.force_deadband
+    );
     let dir = args
         .scene
         .parent()
@@ -131,6 +142,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     }
     let frames = args.frames.then(|| args.out.join("frames"));
     let ws = Workstation::start(&scene, dir, cfg, frames)?;
+    ws.shared.net.force_deadband.set(args.force_deadband);
     println!(
         "workstation: connecting to {} over {:?}",
         args.server, args.transport

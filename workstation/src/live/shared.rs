@@ -282,6 +282,11 @@ pub struct NetStats {
     pub cursors_skipped: AtomicU64,
     /// Force commands sent.
     pub forces_sent: AtomicU64,
+    /// Force commands the perceptual deadband held back (not felt as different).
+    pub forces_held: AtomicU64,
+    /// Perceptual deadband on the force stream (Weber fraction; 0 = every command), read by
+    /// the force thread every tick (`run --force-deadband`).
+    pub force_deadband: AtomicF64,
     /// Clock offset server − workstation (ns) and its bound.
     pub clock_offset_ns: AtomicF64,
     /// Bound of the offset (ns).
