@@ -225,6 +225,52 @@ impl HotPath {
         r
     }
 
+    /// UDP only, without the async runtime: wait in `poll(2)` up to `timeout` for the next
+    /// authentic cursor (`Ok(None)` when none came). A thread that does nothing but answer
+    /// cursors (`workstation latency`) saves the reactor's wake-up hop this way. After the
+    /// stream is up (the opener is not re-sent here).
+    pub fn recv_cursor_blocking(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<Option<(Packet, CursorSample)>, ClientError> {
+        use std::os::fd::AsRawFd as _;
+        let SenderSocket::Udp(socket) = &self.tx.socket else {
+            return Err(ClientError::Protocol(
+                "blocking receive is for the UDP transport".into(),
+            ));
+        };
+        let deadline = std::time::Instant::now() + timeout;
+        let mut buf = [0u8; MAX_PACKET_BYTES + 1];
+        loop {
+            match socket.recv(&mut buf) {
+                Ok(n) => {
+                    if let Ok(p) = self.rx.inbound.accept(&buf[..n])
+                        && let Body::Cursor(c) = p.body
+                    {
+                        return Ok(Some((p, c)));
+                    }
+                    continue;
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                // ICMP errors from an earlier send surface here; the next read goes on.
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => continue,
+                Err(e) => return Err(e.into()),
+            }
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            let mut pfd = libc::pollfd {
+                fd: socket.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            };
+            let ms = i32::try_from(left.as_millis().max(1)).unwrap_or(i32::MAX);
+            // SAFETY: one valid pollfd for the duration of the call.
+            unsafe { libc::poll(&mut pfd, 1, ms) };
+        }
+    }
+
     /// Send a force command now (non-blocking; dropped if the socket buffer is full: a newer
     /// command will follow, and the server's watchdog covers a gap).
     pub fn send_force(&mut self, cmd: &ForceCommand) -> Result<(), ClientError> {

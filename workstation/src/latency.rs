@@ -441,54 +441,50 @@ async fn measure(
         sessions: 1,
         seconds: args.duration,
     };
-    let mut pending = vec![Pending::default(); PENDING];
-    let mut tracker = SequenceTracker::new();
-    tracker.record(first.0.sequence);
-    let mut estimator = ClockEstimator::new(200.0);
-    let mut next_answer_ns = 0u64;
-    let mut last_rtt = None;
+    let mut phase = PhaseState {
+        pending: vec![Pending::default(); PENDING],
+        tracker: SequenceTracker::new(),
+        estimator: ClockEstimator::new(200.0),
+        next_answer_ns: 0,
+        min_gap_ns,
+        last_rtt: None,
+        t_start_ns: clock.now_ns(),
+        last_tick: 0,
+    };
+    phase.tracker.record(first.0.sequence);
     let start = Instant::now();
-    let t_start_ns = clock.now_ns();
-    let mut ping = tokio::time::interval(Duration::from_millis(100));
     let mut last_tick = start;
-    let deadline = tokio::time::Instant::now() + duration;
-    loop {
-        tokio::select! {
-            r = hot.recv_cursor() => {
-                let (packet, cursor) = r?;
-                let t3 = clock.now_ns();
-                tracker.record(packet.sequence);
-                if let Some(ack) = cursor.ack {
-                    let p = &mut pending[ack.sequence as usize % PENDING];
-                    if p.live && p.sequence == ack.sequence {
-                        p.live = false;
-                        let sample = ClockSample { t0_ns: p.sent_ns, t1_ns: ack.arrival_ns, t2_ns: packet.timestamp_ns, t3_ns: t3 };
-                        let _ = estimator.add(sample);
-                        if let Some(est) = estimator.estimate() {
-                            let s = Sample::new(t3.saturating_sub(t_start_ns), p.cursor_arrived_ns, p.answers_ns, &sample, &est);
-                            m.keep(s, &mut last_rtt);
-                        }
-                    }
-                }
-                // Answer on schedule, with half a gap of slack for the cursors' own jitter
-                // (at --rate = the servo rate, every cursor is answered).
-                if t3 + min_gap_ns / 2 >= next_answer_ns {
-                    next_answer_ns = (next_answer_ns + min_gap_ns).max(t3.saturating_sub(min_gap_ns / 2));
-                    answer(&mut hot, &mut pending, packet.sequence, packet.timestamp_ns, t3)?;
-                    m.commands_sent += 1;
-                }
+    let deadline = start + duration;
+    let blocking = cfg.transport == TransportKind::Udp;
+    let mut ping = tokio::time::interval(Duration::from_millis(100));
+    while Instant::now() < deadline {
+        if blocking {
+            // UDP: this thread waits on the socket itself (no reactor hop); the control
+            // channel is read after the phase (the hot path keeps the session alive).
+            let wait = deadline
+                .saturating_duration_since(Instant::now())
+                .min(Duration::from_millis(100));
+            if let Some((packet, cursor)) = hot.recv_cursor_blocking(wait)? {
+                phase.on_cursor(&mut hot, &mut m, &packet, &cursor, clock.now_ns())?;
             }
-            msg = control.recv() => match msg? {
-                Control::Stats(s) => m.server = s,
-                Control::Bye(b) => anyhow::bail!("the server ended the session: {}", b.reason),
-                Control::Error(e) => anyhow::bail!("the server refused: {:?}: {}", e.code, e.message),
-                _ => {}
-            },
-            _ = ping.tick() => {
-                // Keeps the control channel's idle timer fed and shows the channel is alive.
-                control.send(&Control::ClockPing(ClockPing { id: 0, t0_ns: clock.now_ns() })).await?;
+        } else {
+            tokio::select! {
+                r = hot.recv_cursor() => {
+                    let (packet, cursor) = r?;
+                    phase.on_cursor(&mut hot, &mut m, &packet, &cursor, clock.now_ns())?;
+                }
+                msg = control.recv() => match msg? {
+                    Control::Stats(s) => m.server = s,
+                    Control::Bye(b) => anyhow::bail!("the server ended the session: {}", b.reason),
+                    Control::Error(e) => anyhow::bail!("the server refused: {:?}: {}", e.code, e.message),
+                    _ => {}
+                },
+                _ = ping.tick() => {
+                    // Keeps the control channel's idle timer fed.
+                    control.send(&Control::ClockPing(ClockPing { id: 0, t0_ns: clock.now_ns() })).await?;
+                }
+                _ = tokio::time::sleep_until(deadline.into()) => break,
             }
-            _ = tokio::time::sleep_until(deadline) => break,
         }
         if last_tick.elapsed() >= Duration::from_millis(100) {
             last_tick = Instant::now();
@@ -505,24 +501,82 @@ async fn measure(
     if let Some(f) = flood {
         m.forged_sent = f.stop();
     }
-    m.cursors = tracker.stats();
-    m.clock = estimator.estimate();
-    // The server's counters for the whole phase: keep answering until a Stats newer than the
-    // phase's end arrives (they come every second).
-    let end_uptime = m.server.uptime_ns;
+    m.cursors = phase.tracker.stats();
+    m.clock = phase.estimator.estimate();
+    // The server's counters for the whole phase: keep answering (so the session stays up)
+    // until a Stats that counts the phase's last tick arrives (they come every second).
     let wait = tokio::time::Instant::now() + Duration::from_millis(2_500);
-    while m.server.uptime_ns <= end_uptime + 1 {
+    while m.server.ticks <= phase.last_tick {
         tokio::select! {
             r = hot.recv_cursor() => {
                 let (packet, _) = r?;
-                answer(&mut hot, &mut pending, packet.sequence, packet.timestamp_ns, clock.now_ns())?;
+                answer(&mut hot, &mut phase.pending, packet.sequence, packet.timestamp_ns, clock.now_ns())?;
             }
-            msg = control.recv() => if let Control::Stats(s) = msg? { m.server = s },
+            msg = control.recv() => match msg? {
+                Control::Stats(s) => m.server = s,
+                Control::Bye(b) => anyhow::bail!("the server ended the session: {}", b.reason),
+                _ => {}
+            },
             _ = tokio::time::sleep_until(wait) => break,
         }
     }
     let _ = control.close("latency run done").await;
     Ok(m)
+}
+
+/// The bookkeeping of one phase's cursor handling.
+struct PhaseState {
+    pending: Vec<Pending>,
+    tracker: SequenceTracker,
+    estimator: ClockEstimator,
+    next_answer_ns: u64,
+    min_gap_ns: u64,
+    last_rtt: Option<u64>,
+    t_start_ns: u64,
+    /// The servo tick of the newest cursor.
+    last_tick: u64,
+}
+
+impl PhaseState {
+    /// A cursor arrived at `t3`: time the command it acknowledges, answer it when due.
+    fn on_cursor(
+        &mut self,
+        hot: &mut HotPath,
+        m: &mut Measured,
+        packet: &protocol::Packet,
+        cursor: &protocol::CursorSample,
+        t3: u64,
+    ) -> anyhow::Result<()> {
+        self.tracker.record(packet.sequence);
+        self.last_tick = u64::from(cursor.servo_tick);
+        if let Some(ack) = cursor.ack {
+            let p = &mut self.pending[ack.sequence as usize % PENDING];
+            if p.live && p.sequence == ack.sequence {
+                p.live = false;
+                let sample = ClockSample {
+                    t0_ns: p.sent_ns,
+                    t1_ns: ack.arrival_ns,
+                    t2_ns: packet.timestamp_ns,
+                    t3_ns: t3,
+                };
+                let _ = self.estimator.add(sample);
+                if let Some(est) = self.estimator.estimate() {
+                    let t = t3.saturating_sub(self.t_start_ns);
+                    let s = Sample::new(t, p.cursor_arrived_ns, p.answers_ns, &sample, &est);
+                    m.keep(s, &mut self.last_rtt);
+                }
+            }
+        }
+        // Answer on schedule, with half a gap of slack for the cursors' own jitter (at
+        // --rate = the servo rate, every cursor is answered).
+        if t3 + self.min_gap_ns / 2 >= self.next_answer_ns {
+            self.next_answer_ns = (self.next_answer_ns + self.min_gap_ns)
+                .max(t3.saturating_sub(self.min_gap_ns / 2));
+            answer(hot, &mut self.pending, packet.sequence, packet.timestamp_ns, t3)?;
+            m.commands_sent += 1;
+        }
+        Ok(())
+    }
 }
 
 impl Measured {
