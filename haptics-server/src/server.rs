@@ -107,6 +107,8 @@ pub struct Server {
     servo: ServoThreads,
     sender_stop: Arc<AtomicBool>,
     sender: Option<std::thread::JoinHandle<()>>,
+    /// The UDP hot-path receiver thread.
+    receiver: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Server {
@@ -136,7 +138,7 @@ impl Server {
         let clock = MonoClock::new();
         let (shutdown, shutdown_rx) = watch::channel(false);
         let sender_stop = Arc::new(AtomicBool::new(false));
-        let (local_addr, shared, servo, sender) = match opts.transport {
+        let (local_addr, shared, servo, sender, receiver) = match opts.transport {
             TransportKind::Udp => {
                 let (tcp, sock) = udp::bind(opts.listen)?;
                 let local_addr = tcp.local_addr()?;
@@ -151,15 +153,10 @@ impl Server {
                     opts.net,
                     opts.authorized.clone(),
                 ));
+                let receiver = udp::spawn_receiver(Arc::clone(&shared), sock, shutdown_rx.clone())?;
                 let _guard = runtime.enter();
-                runtime.spawn(udp::run(
-                    Arc::clone(&shared),
-                    tcp,
-                    sock,
-                    tls_cfg,
-                    shutdown_rx,
-                ));
-                (local_addr, shared, servo, None)
+                runtime.spawn(udp::run(Arc::clone(&shared), tcp, tls_cfg, shutdown_rx));
+                (local_addr, shared, servo, None, Some(receiver))
             }
             TransportKind::Quic => {
                 let endpoint = {
@@ -192,7 +189,7 @@ impl Server {
                     current,
                     shutdown_rx,
                 ));
-                (local_addr, shared, servo, Some(sender))
+                (local_addr, shared, servo, Some(sender), None)
             }
         };
         // The runtime lives on a thread of its own, so a server can be dropped anywhere
@@ -216,6 +213,7 @@ impl Server {
             servo,
             sender_stop,
             sender,
+            receiver,
         })
     }
 
@@ -281,6 +279,9 @@ impl Server {
         let _ = self.shutdown.send(true);
         if let Some(rt) = self.runtime.take() {
             let _ = rt.join();
+        }
+        if let Some(r) = self.receiver.take() {
+            let _ = r.join();
         }
         self.servo.stop();
         self.sender_stop.store(true, Ordering::Release);

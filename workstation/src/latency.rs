@@ -51,12 +51,16 @@ pub const BASELINE_MAX_S: f64 = 10.0;
 /// Arguments of `workstation latency`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LatencyArgs {
+    /// The connection as a TOML file ([server] address, transport, cert, client_cert,
+    /// client_key); flags override it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// The haptics server (host:port) [default: one in this process, fake device, loopback].
     #[arg(long, value_name = "ADDR")]
     pub server: Option<SocketAddr>,
-    /// Transport; must match the server's.
-    #[arg(long, value_enum, default_value_t = TransportKind::Udp)]
-    pub transport: TransportKind,
+    /// Transport; must match the server's [default: udp].
+    #[arg(long, value_enum)]
+    pub transport: Option<TransportKind>,
     /// The server's certificate (PEM), pinned; required with --server.
     #[arg(long, value_name = "FILE")]
     pub cert: Option<PathBuf>,
@@ -136,10 +140,6 @@ fn check_args(args: &LatencyArgs) -> anyhow::Result<()> {
         "--flood must be 0..={MAX_FLOOD} (MAX_FLOOD), got {}",
         args.flood
     );
-    anyhow::ensure!(
-        args.flood == 0.0 || args.server.is_none(),
-        "--flood needs the in-process server (omit --server): it reads the servo loop's lateness directly"
-    );
     Ok(())
 }
 
@@ -148,27 +148,22 @@ pub fn run(args: &LatencyArgs) -> anyhow::Result<Report> {
     check_args(args)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let (server, cfg) = match args.server {
-        Some(addr) => {
-            let cert = args
-                .cert
-                .as_deref()
-                .context("--server needs --cert (the server's certificate)")?;
-            let identity = crate::live::net::client_identity(
-                cert,
-                args.client_cert.as_deref(),
-                args.client_key.as_deref(),
-            )?;
-            let cfg = NetConfig {
-                server: addr,
-                transport: args.transport,
-                cert: haptics_client::tls::read_cert(cert)?,
-                identity,
-            };
-            (None, cfg)
-        }
+    let remote = crate::live::net::resolve(
+        args.config.as_deref(),
+        args.server,
+        args.transport,
+        args.cert.as_deref(),
+        args.client_cert.as_deref(),
+        args.client_key.as_deref(),
+    )?;
+    anyhow::ensure!(
+        args.flood == 0.0 || remote.is_none(),
+        "--flood needs the in-process server (no --server or --config): it reads the servo loop's lateness directly"
+    );
+    let (server, cfg) = match remote {
+        Some(cfg) => (None, cfg),
         None => {
-            let (server, cfg) = in_process_server(args.transport)?;
+            let (server, cfg) = in_process_server(args.transport.unwrap_or(TransportKind::Udp))?;
             (Some(server), cfg)
         }
     };
@@ -209,7 +204,7 @@ pub fn run(args: &LatencyArgs) -> anyhow::Result<Report> {
     if let Some(s) = &server {
         s.mark_telemetry();
     }
-    bar.set_message(format!("session over {:?}", args.transport));
+    bar.set_message(format!("session over {:?}", cfg.transport));
     let main = runtime.block_on(measure(&cfg, args, None, |f| {
         bar.set_position(done_before + (f * args.duration * 10.0) as u64);
     }))?;
@@ -570,9 +565,15 @@ impl PhaseState {
         // Answer on schedule, with half a gap of slack for the cursors' own jitter (at
         // --rate = the servo rate, every cursor is answered).
         if t3 + self.min_gap_ns / 2 >= self.next_answer_ns {
-            self.next_answer_ns = (self.next_answer_ns + self.min_gap_ns)
-                .max(t3.saturating_sub(self.min_gap_ns / 2));
-            answer(hot, &mut self.pending, packet.sequence, packet.timestamp_ns, t3)?;
+            self.next_answer_ns =
+                (self.next_answer_ns + self.min_gap_ns).max(t3.saturating_sub(self.min_gap_ns / 2));
+            answer(
+                hot,
+                &mut self.pending,
+                packet.sequence,
+                packet.timestamp_ns,
+                t3,
+            )?;
             m.commands_sent += 1;
         }
         Ok(())

@@ -36,22 +36,27 @@ pub fn bind(listen: SocketAddr) -> std::io::Result<(TcpListener, UdpSocket)> {
     Err(last_err.unwrap_or_else(|| std::io::Error::other("no free port for TCP and UDP")))
 }
 
-/// Serve until `shutdown` turns true.
+/// Start the hot-path receiver thread ([`receive`]); it ends within 100 ms of `shutdown`
+/// turning true, and the server joins it so the port is free when shutdown returns.
+pub fn spawn_receiver(
+    shared: Arc<Shared>,
+    udp: UdpSocket,
+    shutdown: watch::Receiver<bool>,
+) -> std::io::Result<std::thread::JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("udp-recv".into())
+        .spawn(move || receive(&shared, &udp, &shutdown))
+}
+
+/// Serve the control connections until `shutdown` turns true.
 pub async fn run(
     shared: Arc<Shared>,
     tcp: TcpListener,
-    udp: UdpSocket,
     tls: rustls::ServerConfig,
     shutdown: watch::Receiver<bool>,
 ) -> std::io::Result<()> {
     let tcp = tokio::net::TcpListener::from_std(tcp)?;
     let acceptor = tokio_rustls::TlsAcceptor::from(Arc::new(tls));
-    let recv = {
-        let (shared, shutdown) = (Arc::clone(&shared), shutdown.clone());
-        std::thread::Builder::new()
-            .name("udp-recv".into())
-            .spawn(move || receive(&shared, &udp, &shutdown))?
-    };
     let mut stop = shutdown.clone();
     loop {
         tokio::select! {
@@ -95,8 +100,6 @@ pub async fn run(
             _ = stop.wait_for(|s| *s) => break,
         }
     }
-    // The receiver sees the shutdown within its 100 ms poll.
-    let _ = tokio::task::spawn_blocking(move || recv.join()).await;
     Ok(())
 }
 
@@ -108,7 +111,8 @@ pub async fn run(
 fn receive(shared: &Shared, udp: &UdpSocket, shutdown: &watch::Receiver<bool>) {
     use std::os::fd::AsRawFd as _;
     let mut buf = [0u8; MAX_PACKET_BYTES + 1];
-    while !*shutdown.borrow() {
+    // Ends on shutdown, or when the server that owns the sender is gone.
+    while !*shutdown.borrow() && shutdown.has_changed().is_ok() {
         let mut pfd = libc::pollfd {
             fd: udp.as_raw_fd(),
             events: libc::POLLIN,

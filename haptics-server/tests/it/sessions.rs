@@ -85,3 +85,37 @@ async fn a_wrong_pinned_certificate_is_refused() {
         assert_eq!(server.sessions_started(), 0);
     }
 }
+
+/// A server that shut down frees its port at once, with a session up: a new one binds the
+/// same address.
+#[test]
+fn a_shut_down_server_frees_its_port() {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    use haptics_server::server::{Server, ServerOptions};
+    let port = {
+        let s = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        s.local_addr().unwrap().port()
+    };
+    for kind in [TransportKind::Udp, TransportKind::Quic] {
+        let mut opts = ServerOptions::for_tests(kind).unwrap();
+        opts.listen = std::net::SocketAddr::from(([127, 0, 0, 1], port));
+        let dev = || {
+            haptics_server::device::fake::FakeDevice::new(
+                haptics_server::device::fake::FakeParams::default(),
+            )
+        };
+        let first = Server::start(dev(), opts.clone()).unwrap();
+        let _client = rt.block_on(async {
+            let mut client = connect(&first, kind).await;
+            tokio::time::timeout(Duration::from_secs(20), client.hot.recv_cursor())
+                .await
+                .unwrap()
+                .unwrap();
+            client
+        });
+        first.shutdown();
+        let second = Server::start(dev(), opts)
+            .unwrap_or_else(|e| panic!("{kind:?}: the port is not free again: {e}"));
+        second.shutdown();
+    }
+}

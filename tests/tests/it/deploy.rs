@@ -38,6 +38,7 @@ fn text(out: &Output) -> String {
 fn every_example_server_config_loads_and_validates() {
     let dir = deploy_dir().join("examples");
     let mut checked = Vec::new();
+    let mut workstation_files = Vec::new();
     for entry in std::fs::read_dir(&dir).expect("deploy/examples") {
         let path = entry.expect("dir entry").path();
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
@@ -45,8 +46,15 @@ fn every_example_server_config_loads_and_validates() {
             continue;
         }
         // Every TOML here is a server config unless its name says workstation, so a misnamed
-        // server config cannot slip past the loader.
+        // server config cannot slip past the loader; workstation ones go through theirs.
         if name.contains("workstation") {
+            let f = workstation::live::net::ConnectionFile::load(&path)
+                .unwrap_or_else(|e| panic!("{name} does not load: {e}"));
+            assert!(
+                f.server.client_cert.is_some() && f.server.client_key.is_some(),
+                "{name}: a lab workstation names its client identity"
+            );
+            workstation_files.push(name);
             continue;
         }
         let src = std::fs::read_to_string(&path).expect("read example");
@@ -84,7 +92,12 @@ fn every_example_server_config_loads_and_validates() {
     let lat = get("latency-server.toml");
     assert_eq!(lat.device.kind, DeviceKind::Fake);
     assert_eq!(lat.device.fake.path, "idle");
-    eprintln!("deploy: loaded and validated {names:?}");
+    workstation_files.sort();
+    assert_eq!(
+        workstation_files,
+        ["lab-workstation.toml", "latency-workstation.toml"]
+    );
+    eprintln!("deploy: loaded and validated {names:?} and {workstation_files:?}");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -389,6 +402,8 @@ fn script() -> PathBuf {
 #[derive(Debug)]
 struct TwoHosts {
     prefix: String,
+    /// The first three octets of the pair's /24.
+    subnet: &'static str,
 }
 
 impl TwoHosts {
@@ -400,7 +415,7 @@ impl TwoHosts {
             .env("DELAY_MS", delay_ms.to_string())
             .env("JITTER_MS", "0")
             .env("LOSS_PCT", "0")
-            .env("SUBNET", "10.77.0")
+            .env("SUBNET", self.subnet)
             .output()
             .expect("run two-hosts.sh")
     }
@@ -425,7 +440,7 @@ impl TwoHosts {
         let out = Command::new("ip")
             .args(["netns", "exec", &format!("{}-ws", self.prefix)])
             .args(["ping", "-c", &count.to_string(), "-i", "0.2", "-W", "2"])
-            .arg("10.77.0.1")
+            .arg(format!("{}.1", self.subnet))
             .output()
             .expect("run ping");
         let all = text(&out);
@@ -489,6 +504,7 @@ fn the_netem_script_builds_two_hosts_with_the_round_trip_and_removes_them() {
     // Unique per test run, so concurrent runs on one machine do not collide.
     let pair = TwoHosts {
         prefix: format!("e2e{}", std::process::id()),
+        subnet: "10.77.0",
     };
     assert!(
         pair.leftovers().is_empty(),
@@ -568,4 +584,100 @@ fn the_netem_script_builds_two_hosts_with_the_round_trip_and_removes_them() {
         "deploy: netem script: up, status, down and nothing left (prefix {})",
         pair.prefix
     );
+}
+
+/// A latency run between the two namespaces (server and `udp-echo` in one, `workstation
+/// latency` in the other) sees the configured delay: 5 ms each way gives a 10 ms network round
+/// trip and 5 ms one way each direction, within the run's own bound.
+#[test]
+fn a_latency_run_through_netem_reproduces_the_configured_delay() {
+    if !is_root() || !on_path("ip") || !on_path("tc") {
+        eprintln!("skipped: latency through netem: needs root, ip and tc (Debian iproute2)");
+        return;
+    }
+    const DELAY_MS: f64 = 5.0;
+    let pair = TwoHosts {
+        prefix: format!("lat{}", std::process::id()),
+        subnet: "10.78.0",
+    };
+    let up = pair.run("up", DELAY_MS as u32);
+    match up.status.code() {
+        Some(0) => {}
+        Some(5) => {
+            eprintln!(
+                "skipped: latency through netem: this kernel has no netem qdisc, so no delay can \
+                 be emulated ({})",
+                text(&up).trim()
+            );
+            return;
+        }
+        code => panic!("two-hosts.sh up exited {code:?}:\n{}", text(&up)),
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let made = Command::new(e2e_tests::binary("haptics-server"))
+        .args(["gen-cert", "--out"])
+        .arg(dir.path())
+        .output()
+        .expect("gen-cert");
+    assert!(made.status.success(), "gen-cert: {}", text(&made));
+    let in_ns = |ns: &str, bin: &str| {
+        let mut c = Command::new("ip");
+        c.args(["netns", "exec", &format!("{}-{ns}", pair.prefix)])
+            .arg(e2e_tests::binary(bin));
+        c
+    };
+    let mut server = in_ns("server", "haptics-server");
+    server
+        .args(["--device", "fake", "--fake-path", "idle", "--no-realtime"])
+        .args(["--listen", "10.78.0.1:7700", "--cert"])
+        .arg(dir.path().join("cert.pem"))
+        .arg("--key")
+        .arg(dir.path().join("key.pem"));
+    let _server = e2e_tests::ChildGuard::spawn(server);
+    let mut echo = in_ns("server", "workstation");
+    echo.args(["udp-echo", "--listen", "10.78.0.1:7701"]);
+    let _echo = e2e_tests::ChildGuard::spawn(echo);
+    // The server creates the local client identity beside its certificate on start.
+    let start = std::time::Instant::now();
+    while !dir.path().join("client.key").exists() {
+        assert!(start.elapsed().as_secs() < 20, "the server did not start");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let out = dir.path().join("out");
+    let run = in_ns("ws", "workstation")
+        .args(["latency", "--server", "10.78.0.1:7700", "--cert"])
+        .arg(dir.path().join("cert.pem"))
+        .args(["--echo", "10.78.0.1:7701", "--duration", "3", "--out"])
+        .arg(&out)
+        .output()
+        .expect("run workstation latency");
+    assert!(run.status.success(), "latency run:\n{}", text(&run));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let f = |a: &str, b: &str| r[a][b].as_f64().unwrap_or_else(|| panic!("{a}.{b} in {r}"));
+    let rtt_ms = f("network_rtt_us", "p50") / 1e3;
+    let base_ms = f("baseline_udp_rtt_us", "p50") / 1e3;
+    eprintln!(
+        "deploy: netem {DELAY_MS} ms each way: network rtt p50 {rtt_ms} ms, bare UDP {base_ms} ms"
+    );
+    for (what, ms) in [("network round trip", rtt_ms), ("bare UDP", base_ms)] {
+        assert!(
+            (2.0 * DELAY_MS..2.0 * DELAY_MS + 3.0).contains(&ms),
+            "{what} p50 {ms} ms, configured {} ms",
+            2.0 * DELAY_MS
+        );
+    }
+    for dir in ["server_to_workstation", "workstation_to_server"] {
+        let w = &r["one_way_us"][dir];
+        let (p50, bound) = (
+            w["p50"].as_f64().unwrap() / 1e3,
+            w["bound"].as_f64().unwrap() / 1e3,
+        );
+        assert!(
+            (p50 - DELAY_MS).abs() <= bound + 1.5,
+            "{dir}: one way p50 {p50} ms ± {bound} ms, configured {DELAY_MS} ms"
+        );
+    }
+    assert_eq!(r["sessions"], 1);
 }

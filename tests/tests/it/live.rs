@@ -355,6 +355,15 @@ fn a_killed_workstation_process_fades_to_zero_and_the_next_is_accepted() {
     let opts = ServerOptions::for_tests(TransportKind::Udp).unwrap();
     let (cert, key) = (dir.path().join("cert.pem"), dir.path().join("key.pem"));
     haptics_server::tls::write_pem(&opts.identity, &cert, &key).unwrap();
+    // The authorized client identity beside the certificate, where a server writes it on
+    // first start: the workstation process finds it there with no flag.
+    let client = opts.local_client.clone().unwrap();
+    haptics_server::tls::write_pem(
+        &client,
+        &dir.path().join("client.pem"),
+        &dir.path().join("client.key"),
+    )
+    .unwrap();
     let (server, monitor, cfg) = server_with(press_path(0.006), opts);
     let scene = write_scene(dir.path());
     let mut cmd = Command::new(binary("workstation"));

@@ -66,6 +66,119 @@ impl NetConfig {
     }
 }
 
+/// The workstation's side of the connection as a file (`workstation run --config FILE`,
+/// `workstation latency --config FILE`); flags given on the command line override it.
+///
+/// ```toml
+/// [server]
+/// address = "192.168.10.2:7700"   # the haptics PC
+/// transport = "udp"               # must match the server's network.transport
+/// cert = "server-cert.pem"        # the server's certificate, pinned
+/// client_cert = "client.pem"      # this workstation's identity, listed in the server's
+/// client_key = "client.key"       #   network.authorized_clients
+/// ```
+///
+/// Relative paths are relative to the file. Unknown fields are errors.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectionFile {
+    /// `[server]`.
+    pub server: ServerSection,
+}
+
+/// `[server]` of a [`ConnectionFile`].
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServerSection {
+    /// host:port of the haptics server.
+    pub address: SocketAddr,
+    /// `udp` (default) or `quic`.
+    #[serde(default = "udp")]
+    pub transport: TransportKind,
+    /// The server's certificate (PEM), pinned.
+    pub cert: std::path::PathBuf,
+    /// This workstation's client certificate (PEM) [default: client.pem next to `cert`].
+    pub client_cert: Option<std::path::PathBuf>,
+    /// Its private key (PEM) [default: client.key next to `cert`].
+    pub client_key: Option<std::path::PathBuf>,
+}
+
+fn udp() -> TransportKind {
+    TransportKind::Udp
+}
+
+impl ConnectionFile {
+    /// Read and check `path`; errors name the file and the field.
+    pub fn load(path: &std::path::Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let mut file: Self =
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        let s = &mut file.server;
+        for p in [
+            Some(&mut s.cert),
+            s.client_cert.as_mut(),
+            s.client_key.as_mut(),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            if p.is_relative() {
+                *p = dir.join(&*p);
+            }
+        }
+        if s.client_cert.is_some() != s.client_key.is_some() {
+            anyhow::bail!(
+                "{}: server.client_cert and server.client_key go together (give both or neither)",
+                path.display()
+            );
+        }
+        Ok(file)
+    }
+}
+
+/// Where to connect, from `--config` and the flags (a flag wins over the file): `None` when
+/// neither names a server.
+pub fn resolve(
+    config: Option<&std::path::Path>,
+    server: Option<SocketAddr>,
+    transport: Option<TransportKind>,
+    cert: Option<&std::path::Path>,
+    client_cert: Option<&std::path::Path>,
+    client_key: Option<&std::path::Path>,
+) -> anyhow::Result<Option<NetConfig>> {
+    let file = config
+        .map(ConnectionFile::load)
+        .transpose()?
+        .map(|f| f.server);
+    let Some(server) = server.or(file.as_ref().map(|f| f.address)) else {
+        return Ok(None);
+    };
+    let transport = transport
+        .or(file.as_ref().map(|f| f.transport))
+        .unwrap_or(TransportKind::Udp);
+    let cert = cert
+        .map(std::path::Path::to_path_buf)
+        .or(file.as_ref().map(|f| f.cert.clone()))
+        .ok_or_else(|| {
+            anyhow::anyhow!("--server needs --cert (the server's certificate) or --config")
+        })?;
+    let (cc, ck) = match (client_cert, client_key) {
+        (Some(c), Some(k)) => (Some(c.to_path_buf()), Some(k.to_path_buf())),
+        _ => (
+            file.as_ref().and_then(|f| f.client_cert.clone()),
+            file.as_ref().and_then(|f| f.client_key.clone()),
+        ),
+    };
+    Ok(Some(NetConfig {
+        server,
+        transport,
+        cert: haptics_client::tls::read_cert(&cert)?,
+        identity: client_identity(&cert, cc.as_deref(), ck.as_deref())?,
+    }))
+}
+
 /// The workstation's client identity: `client_cert` and `client_key` when given (both or
 /// neither), else `client.pem`/`client.key` next to the server's certificate (where a server on
 /// this machine creates them on first start), else none (the server will refuse the session
@@ -258,5 +371,63 @@ fn record_stats(net: &NetStats, s: &Stats) {
     if s.uptime_ns > u0 && s.ticks >= t0 && u0 > 0 {
         net.servo_hz
             .set((s.ticks - t0) as f64 / ((s.uptime_ns - u0) as f64 * 1e-9));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn connection_files_resolve_relative_paths_and_name_bad_fields() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ws.toml");
+        std::fs::write(
+            &path,
+            "[server]\naddress = \"10.0.0.2:7700\"\ntransport = \"quic\"\ncert = \"s.pem\"\n\
+             client_cert = \"/etc/c.pem\"\nclient_key = \"c.key\"\n",
+        )
+        .unwrap();
+        let f = ConnectionFile::load(&path).unwrap();
+        assert_eq!(f.server.address, "10.0.0.2:7700".parse().unwrap());
+        assert_eq!(f.server.transport, TransportKind::Quic);
+        assert_eq!(f.server.cert, dir.path().join("s.pem"));
+        assert_eq!(
+            f.server.client_cert.as_deref(),
+            Some(std::path::Path::new("/etc/c.pem"))
+        );
+        assert_eq!(f.server.client_key, Some(dir.path().join("c.key")));
+        for (text, want) in [
+            ("[server]\naddress = \"x\"\ncert = \"a\"\n", "address"),
+            (
+                "[server]\naddress = \"1.2.3.4:5\"\ncert = \"a\"\nport = 3\n",
+                "port",
+            ),
+            (
+                "[server]\naddress = \"1.2.3.4:5\"\ncert = \"a\"\nclient_cert = \"c\"\n",
+                "server.client_key",
+            ),
+        ] {
+            std::fs::write(&path, text).unwrap();
+            let e = ConnectionFile::load(&path).unwrap_err().to_string();
+            assert!(e.contains("ws.toml") && e.contains(want), "{e}");
+        }
+        // Flags win over the file; with neither naming a server there is nothing to connect.
+        assert!(
+            resolve(None, None, None, None, None, None)
+                .unwrap()
+                .is_none()
+        );
+        let e = resolve(
+            None,
+            Some("1.2.3.4:5".parse().unwrap()),
+            None,
+            None,
+            None,
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("--cert"), "{e}");
     }
 }

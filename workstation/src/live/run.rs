@@ -15,23 +15,26 @@ use anyhow::Context as _;
 use haptics_client::TransportKind;
 
 use super::demo::{drive_phases, hand_path, write_hand_path};
-use super::net::NetConfig;
 use super::scene_file::SceneFile;
 use super::{Workstation, save};
 
 /// Arguments of `workstation run`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RunArgs {
-    /// The haptics server (host:port).
-    #[arg(long, value_name = "ADDR")]
-    pub server: SocketAddr,
-    /// Transport; must match the server's.
-    #[arg(long, value_enum, default_value_t = TransportKind::Udp)]
-    pub transport: TransportKind,
-    /// The server's certificate (PEM), pinned: copy it from the haptics PC
-    /// (`haptics-server gen-cert` prints where it is).
+    /// The connection as a TOML file ([server] address, transport, cert, client_cert,
+    /// client_key; see deploy/examples/lab-workstation.toml); flags override it.
     #[arg(long, value_name = "FILE")]
-    pub cert: PathBuf,
+    pub config: Option<PathBuf>,
+    /// The haptics server (host:port); required unless --config gives it.
+    #[arg(long, value_name = "ADDR")]
+    pub server: Option<SocketAddr>,
+    /// Transport; must match the server's [default: udp].
+    #[arg(long, value_enum)]
+    pub transport: Option<TransportKind>,
+    /// The server's certificate (PEM), pinned: copy it from the haptics PC
+    /// (`haptics-server gen-cert` prints where it is); required unless --config gives it.
+    #[arg(long, value_name = "FILE")]
+    pub cert: Option<PathBuf>,
     /// The workstation's client certificate (PEM), listed in the server's authorized clients
     /// [default: client.pem next to --cert, where a local server creates it].
     #[arg(long, value_name = "FILE", requires = "client_key")]
@@ -126,16 +129,16 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         .scene
         .parent()
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
-    let cfg = NetConfig {
-        server: args.server,
-        transport: args.transport,
-        cert: haptics_client::tls::read_cert(&args.cert)?,
-        identity: super::net::client_identity(
-            &args.cert,
-            args.client_cert.as_deref(),
-            args.client_key.as_deref(),
-        )?,
-    };
+    let cfg = super::net::resolve(
+        args.config.as_deref(),
+        args.server,
+        args.transport,
+        args.cert.as_deref(),
+        args.client_cert.as_deref(),
+        args.client_key.as_deref(),
+    )?
+    .ok_or_else(|| anyhow::anyhow!("give --server and --cert, or --config FILE"))?;
+    let (server, transport) = (cfg.server, cfg.transport);
     // SAFETY: installs an async-signal-safe handler that only stores to an atomic.
     unsafe {
         libc::signal(libc::SIGINT, on_sigint as *const () as libc::sighandler_t);
@@ -143,10 +146,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let frames = args.frames.then(|| args.out.join("frames"));
     let ws = Workstation::start(&scene, dir, cfg, frames)?;
     ws.shared.net.force_deadband.set(args.force_deadband);
-    println!(
-        "workstation: connecting to {} over {:?}",
-        args.server, args.transport
-    );
+    println!("workstation: connecting to {} over {:?}", server, transport);
     let started = Instant::now();
     let done = || {
         INTERRUPTED.load(Ordering::Relaxed)
