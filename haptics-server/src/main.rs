@@ -319,7 +319,7 @@ fn gen_cert(
         );
         match authorize {
             Some(list) => {
-                tls::append_authorized(list, &id.cert)?;
+                tls::append_certificate(list, &id.cert)?;
                 println!("authorized: appended it to {}", list.display());
             }
             None => println!(

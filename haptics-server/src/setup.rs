@@ -79,7 +79,7 @@ pub fn authorized_clients(
             tls::write_pem(&id, &client_cert, &client_key)?;
         }
         let id = tls::read_identity(&client_cert, &client_key)?;
-        tls::append_authorized(&path, &id.cert)?;
+        tls::append_certificate(&path, &id.cert)?;
         created = true;
     }
     let list = AuthorizedClients::read(&path).map_err(|e| match e {

@@ -123,8 +123,9 @@ impl AuthorizedClients {
     }
 }
 
-/// Append `cert` to the PEM file at `path` (created if missing).
-pub fn append_authorized(path: &Path, cert: &CertificateDer<'_>) -> Result<(), TlsError> {
+/// Append `cert` as a PEM block to the file at `path` (created if missing): an authorized
+/// clients list, or a certificate file of its own.
+pub fn append_certificate(path: &Path, cert: &CertificateDer<'_>) -> Result<(), TlsError> {
     use std::io::Write as _;
     let file_err = |e: std::io::Error| TlsError::File {
         path: path.to_owned(),
@@ -299,8 +300,8 @@ mod tests {
             generate_client().unwrap(),
             generate_client().unwrap(),
         );
-        append_authorized(&list, &a.cert).unwrap();
-        append_authorized(&list, &b.cert).unwrap();
+        append_certificate(&list, &a.cert).unwrap();
+        append_certificate(&list, &b.cert).unwrap();
         let auth = AuthorizedClients::read(&list).unwrap();
         assert_eq!(auth.len(), 2);
         assert!(auth.contains(&a.cert) && auth.contains(&b.cert));

@@ -203,3 +203,44 @@ async fn unauthenticated_clients_get_a_named_error_and_never_a_session() {
         assert_eq!(server.sessions_started(), 1, "{kind:?}");
     }
 }
+
+/// A client written from docs/PROTOCOL.md alone (`docs/examples/hp_hello.py`, Python's
+/// standard `ssl`) gets a session with the client identity and a named `Unauthenticated`
+/// error without it.
+#[test]
+fn a_python_client_from_the_doc_authenticates_with_its_certificate() {
+    let (server, _monitor) = server(TransportKind::Udp, Duration::from_secs(120));
+    let dir = tempfile::tempdir().unwrap();
+    let cert = dir.path().join("cert.pem");
+    haptics_server::tls::append_certificate(&cert, &server.certificate()).unwrap();
+    let client = server.local_client().unwrap();
+    let (cc, ck) = (dir.path().join("client.pem"), dir.path().join("client.key"));
+    haptics_server::tls::write_pem(&client, &cc, &ck).unwrap();
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/examples/hp_hello.py");
+    let port = server.local_addr().port().to_string();
+    let run = |with_identity: bool| {
+        let mut cmd = std::process::Command::new("python3");
+        cmd.arg(&script).args(["127.0.0.1", &port]).arg(&cert);
+        if with_identity {
+            cmd.arg(&cc).arg(&ck);
+        }
+        let out = cmd.output().expect("python3 is on every project machine");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let refused = run(false);
+    assert!(
+        refused.contains("\"Error\"") && refused.contains("\"code\": 6"),
+        "no certificate: {refused}"
+    );
+    let welcome = run(true);
+    assert!(
+        welcome.contains("\"Welcome\"") && welcome.contains("\"servo_rate_hz\": 1000"),
+        "with the client certificate: {welcome}"
+    );
+}

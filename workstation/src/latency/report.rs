@@ -611,7 +611,7 @@ fn plot_histogram(path: &Path, m: &Measured, base: &PingPong) -> anyhow::Result<
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            "Round-trip time: cursor → force vs bare UDP ping-pong",
+            "Round trip: cursor-to-force (ours) vs bare UDP ping-pong, same run",
             ("sans-serif", 22),
         )
         .margin(12)
@@ -625,7 +625,7 @@ fn plot_histogram(path: &Path, m: &Measured, base: &PingPong) -> anyhow::Result<
         .draw()?;
     let w = hi / BINS as f64;
     for (counts, color, label) in [
-        (&co, RED, "cursor → force (ours)"),
+        (&co, RED, "cursor-to-force (ours)"),
         (&cb, BLUE, "bare UDP ping-pong"),
     ] {
         let pts: Vec<(f64, f64)> = counts
@@ -654,12 +654,18 @@ fn plot_over_time(path: &Path, m: &Measured, r: &Report) -> anyhow::Result<()> {
         .map(|s| (s.t_ns as f64 / 1e9, s.rtt_ns as f64 / 1e3))
         .collect();
     let tmax = pts.last().map_or(1.0, |p| p.0).max(1e-3);
-    let ymax = (r.rtt_us.max.max(r.baseline_udp_rtt_us.p99) * 1.1).max(1.0);
+    // Up to 1.5 × the 99.9th percentile: the rare outliers above would flatten the rest.
+    let ymax = (r.rtt_us.p999.max(r.baseline_udp_rtt_us.p99) * 1.5).max(1.0);
+    let above = pts.iter().filter(|p| p.1 > ymax).count();
     let root = BitMapBackend::new(path, (900, 500)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            format!("Cursor → force round trip over time ({})", r.transport),
+            format!(
+                "Cursor-to-force round trip over time ({}; {above} of {} above the plot)",
+                r.transport,
+                pts.len()
+            ),
             ("sans-serif", 22),
         )
         .margin(12)
@@ -674,9 +680,10 @@ fn plot_over_time(path: &Path, m: &Measured, r: &Report) -> anyhow::Result<()> {
     chart
         .draw_series(
             pts.iter()
+                .filter(|p| p.1 <= ymax)
                 .map(|&(t, v)| Circle::new((t, v), 1, RED.mix(0.5).filled())),
         )?
-        .label("cursor → force (ours), each command")
+        .label("cursor-to-force (ours), each command")
         .legend(|(x, y)| Circle::new((x + 10, y), 3, RED.filled()));
     let b = r.baseline_udp_rtt_us.p50;
     chart
