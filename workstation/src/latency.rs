@@ -288,10 +288,30 @@ fn in_process_server(
     Ok((server, cfg))
 }
 
+/// Built without the `demo-server` feature there is no in-process server: this type has no
+/// values, so the code that would use one cannot run.
 #[cfg(not(feature = "demo-server"))]
-fn in_process_server(
-    _transport: TransportKind,
-) -> anyhow::Result<(std::convert::Infallible, NetConfig)> {
+enum NoServer {}
+
+#[cfg(not(feature = "demo-server"))]
+impl NoServer {
+    fn mark_telemetry(&self) {
+        match *self {}
+    }
+
+    fn servo_stats(&self) -> NoStats {
+        match *self {}
+    }
+}
+
+#[cfg(not(feature = "demo-server"))]
+struct NoStats {
+    lateness_since_mark_ns: protocol::control::Percentiles,
+    ticks: u64,
+}
+
+#[cfg(not(feature = "demo-server"))]
+fn in_process_server(_transport: TransportKind) -> anyhow::Result<(NoServer, NetConfig)> {
     anyhow::bail!(
         "this workstation was built without the in-process server (feature `demo-server`): give --server and --cert"
     )
