@@ -23,6 +23,7 @@
 //! Outputs go to `--out` ([`report`]).
 
 pub mod baseline;
+pub mod plots;
 pub mod report;
 
 use std::net::SocketAddr;
