@@ -110,7 +110,7 @@ pub fn client_config(
     let provider = provider();
     let verifier = Arc::new(PinnedCert {
         pinned,
-        provider: Arc::clone(&provider),
+        signatures: SignatureCheck::new(Arc::clone(&provider)),
     });
     let builder = rustls::ClientConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
@@ -137,7 +137,7 @@ pub fn server_name() -> ServerName<'static> {
 #[derive(Debug)]
 struct PinnedCert {
     pinned: CertificateDer<'static>,
-    provider: Arc<CryptoProvider>,
+    signatures: SignatureCheck,
 }
 
 impl ServerCertVerifier for PinnedCert {
@@ -164,6 +164,44 @@ impl ServerCertVerifier for PinnedCert {
         cert: &CertificateDer<'_>,
         dss: &DigitallySignedStruct,
     ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        self.signatures.tls12(message, cert, dss)
+    }
+
+    fn verify_tls13_signature(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        self.signatures.tls13(message, cert, dss)
+    }
+
+    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
+        self.signatures.schemes()
+    }
+}
+
+/// Handshake signatures checked with a provider's algorithms: what a pinning verifier does
+/// besides comparing the certificate, on either side (the client pinning the server here, the
+/// server checking client certificates in `haptics-server`).
+#[derive(Debug)]
+pub struct SignatureCheck {
+    provider: Arc<CryptoProvider>,
+}
+
+impl SignatureCheck {
+    /// With `provider`'s signature algorithms.
+    pub fn new(provider: Arc<CryptoProvider>) -> Self {
+        Self { provider }
+    }
+
+    /// A TLS 1.2 handshake signature.
+    pub fn tls12(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
         rustls::crypto::verify_tls12_signature(
             message,
             cert,
@@ -172,7 +210,8 @@ impl ServerCertVerifier for PinnedCert {
         )
     }
 
-    fn verify_tls13_signature(
+    /// A TLS 1.3 handshake signature (`CertificateVerify`).
+    pub fn tls13(
         &self,
         message: &[u8],
         cert: &CertificateDer<'_>,
@@ -186,7 +225,8 @@ impl ServerCertVerifier for PinnedCert {
         )
     }
 
-    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
+    /// The schemes those checks accept.
+    pub fn schemes(&self) -> Vec<SignatureScheme> {
         self.provider
             .signature_verification_algorithms
             .supported_schemes()

@@ -22,15 +22,14 @@ use std::path::Path;
 use std::sync::Arc;
 
 use rustls::client::danger::HandshakeSignatureValid;
-use rustls::crypto::CryptoProvider;
 use rustls::pki_types::pem::PemObject;
 use rustls::pki_types::{CertificateDer, PrivateKeyDer, UnixTime};
 use rustls::server::danger::{ClientCertVerified, ClientCertVerifier};
 use rustls::{DigitallySignedStruct, DistinguishedName, SignatureScheme};
 
 pub use haptics_client::tls::{
-    ALPN, CLIENT_FILES, Identity, SERVER_NAME, TlsError, client_config, identity_beside, provider,
-    read_cert, read_identity, server_name,
+    ALPN, CLIENT_FILES, Identity, SERVER_NAME, SignatureCheck, TlsError, client_config,
+    identity_beside, provider, read_cert, read_identity, server_name,
 };
 
 /// The name in a generated client certificate.
@@ -197,7 +196,7 @@ fn pem(label: &str, der: &[u8]) -> String {
 pub fn server_config(id: &Identity) -> Result<rustls::ServerConfig, TlsError> {
     let provider = provider();
     let verifier = Arc::new(AnyClientCert {
-        provider: Arc::clone(&provider),
+        signatures: SignatureCheck::new(Arc::clone(&provider)),
     });
     let mut cfg = rustls::ServerConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
@@ -214,7 +213,7 @@ pub fn server_config(id: &Identity) -> Result<rustls::ServerConfig, TlsError> {
 /// [`AuthorizedClients`], where a refusal can say why.
 #[derive(Debug)]
 struct AnyClientCert {
-    provider: Arc<CryptoProvider>,
+    signatures: SignatureCheck,
 }
 
 impl ClientCertVerifier for AnyClientCert {
@@ -245,12 +244,7 @@ impl ClientCertVerifier for AnyClientCert {
         cert: &CertificateDer<'_>,
         dss: &DigitallySignedStruct,
     ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls12_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
+        self.signatures.tls12(message, cert, dss)
     }
 
     fn verify_tls13_signature(
@@ -259,18 +253,11 @@ impl ClientCertVerifier for AnyClientCert {
         cert: &CertificateDer<'_>,
         dss: &DigitallySignedStruct,
     ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls13_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
+        self.signatures.tls13(message, cert, dss)
     }
 
     fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
-        self.provider
-            .signature_verification_algorithms
-            .supported_schemes()
+        self.signatures.schemes()
     }
 }
 
