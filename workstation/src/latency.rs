@@ -52,25 +52,9 @@ pub const BASELINE_MAX_S: f64 = 10.0;
 /// Arguments of `workstation latency`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LatencyArgs {
-    /// The connection as a TOML file ([server] address, transport, cert, client_cert,
-    /// client_key); flags override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// The haptics server (host:port) [default: one in this process, fake device, loopback].
-    #[arg(long, value_name = "ADDR")]
-    pub server: Option<SocketAddr>,
-    /// Transport; must match the server's [default: udp].
-    #[arg(long, value_enum)]
-    pub transport: Option<TransportKind>,
-    /// The server's certificate (PEM), pinned; required with --server.
-    #[arg(long, value_name = "FILE")]
-    pub cert: Option<PathBuf>,
-    /// The workstation's client certificate [default: client.pem next to --cert].
-    #[arg(long, value_name = "FILE", requires = "client_key")]
-    pub client_cert: Option<PathBuf>,
-    /// Its private key [default: client.key next to --cert].
-    #[arg(long, value_name = "FILE", requires = "client_cert")]
-    pub client_key: Option<PathBuf>,
+    /// Where and how to connect [default: a server in this process, fake device, loopback].
+    #[command(flatten)]
+    pub connect: crate::live::net::ConnectArgs,
     /// Force commands per second at most (the server streams cursors at its servo rate; one
     /// in every rate/servo-rate is answered), and the baseline's ping rate.
     #[arg(long, default_value_t = 1000)]
@@ -149,14 +133,7 @@ pub fn run(args: &LatencyArgs) -> anyhow::Result<Report> {
     check_args(args)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let remote = crate::live::net::resolve(
-        args.config.as_deref(),
-        args.server,
-        args.transport,
-        args.cert.as_deref(),
-        args.client_cert.as_deref(),
-        args.client_key.as_deref(),
-    )?;
+    let remote = args.connect.resolve()?;
     anyhow::ensure!(
         args.flood == 0.0 || remote.is_none(),
         "--flood needs the in-process server (no --server or --config): it reads the servo loop's lateness directly"
@@ -164,7 +141,8 @@ pub fn run(args: &LatencyArgs) -> anyhow::Result<Report> {
     let (server, cfg) = match remote {
         Some(cfg) => (None, cfg),
         None => {
-            let (server, cfg) = in_process_server(args.transport.unwrap_or(TransportKind::Udp))?;
+            let (server, cfg) =
+                in_process_server(args.connect.transport.unwrap_or(TransportKind::Udp))?;
             (Some(server), cfg)
         }
     };

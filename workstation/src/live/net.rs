@@ -138,45 +138,70 @@ impl ConnectionFile {
     }
 }
 
-/// Where to connect, from `--config` and the flags (a flag wins over the file): `None` when
-/// neither names a server.
-pub fn resolve(
-    config: Option<&std::path::Path>,
-    server: Option<SocketAddr>,
-    transport: Option<TransportKind>,
-    cert: Option<&std::path::Path>,
-    client_cert: Option<&std::path::Path>,
-    client_key: Option<&std::path::Path>,
-) -> anyhow::Result<Option<NetConfig>> {
-    let file = config
-        .map(ConnectionFile::load)
-        .transpose()?
-        .map(|f| f.server);
-    let Some(server) = server.or(file.as_ref().map(|f| f.address)) else {
-        return Ok(None);
-    };
-    let transport = transport
-        .or(file.as_ref().map(|f| f.transport))
-        .unwrap_or(TransportKind::Udp);
-    let cert = cert
-        .map(std::path::Path::to_path_buf)
-        .or(file.as_ref().map(|f| f.cert.clone()))
-        .ok_or_else(|| {
-            anyhow::anyhow!("--server needs --cert (the server's certificate) or --config")
-        })?;
-    let (cc, ck) = match (client_cert, client_key) {
-        (Some(c), Some(k)) => (Some(c.to_path_buf()), Some(k.to_path_buf())),
-        _ => (
-            file.as_ref().and_then(|f| f.client_cert.clone()),
-            file.as_ref().and_then(|f| f.client_key.clone()),
-        ),
-    };
-    Ok(Some(NetConfig {
-        server,
-        transport,
-        cert: haptics_client::tls::read_cert(&cert)?,
-        identity: client_identity(&cert, cc.as_deref(), ck.as_deref())?,
-    }))
+/// The connection flags `workstation run` and `workstation latency` share; a flag wins over
+/// the `--config` file.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct ConnectArgs {
+    /// The connection as a TOML file ([server] address, transport, cert, client_cert,
+    /// client_key; see deploy/examples/lab-workstation.toml); flags override it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<std::path::PathBuf>,
+    /// The haptics server (host:port), unless --config gives it.
+    #[arg(long, value_name = "ADDR")]
+    pub server: Option<SocketAddr>,
+    /// Transport; must match the server's [default: udp].
+    #[arg(long, value_enum)]
+    pub transport: Option<TransportKind>,
+    /// The server's certificate (PEM), pinned: copy it from the haptics PC
+    /// (`haptics-server gen-cert` prints where it is); required with --server.
+    #[arg(long, value_name = "FILE")]
+    pub cert: Option<std::path::PathBuf>,
+    /// The workstation's client certificate (PEM), listed in the server's authorized clients
+    /// [default: client.pem next to --cert, where a local server creates it].
+    #[arg(long, value_name = "FILE", requires = "client_key")]
+    pub client_cert: Option<std::path::PathBuf>,
+    /// The client certificate's private key (PEM) [default: client.key next to --cert].
+    #[arg(long, value_name = "FILE", requires = "client_cert")]
+    pub client_key: Option<std::path::PathBuf>,
+}
+
+impl ConnectArgs {
+    /// Where to connect: `None` when neither the flags nor the file name a server.
+    pub fn resolve(&self) -> anyhow::Result<Option<NetConfig>> {
+        let file = self
+            .config
+            .as_deref()
+            .map(ConnectionFile::load)
+            .transpose()?
+            .map(|f| f.server);
+        let Some(server) = self.server.or(file.as_ref().map(|f| f.address)) else {
+            return Ok(None);
+        };
+        let transport = self
+            .transport
+            .or(file.as_ref().map(|f| f.transport))
+            .unwrap_or(TransportKind::Udp);
+        let cert = self
+            .cert
+            .clone()
+            .or(file.as_ref().map(|f| f.cert.clone()))
+            .ok_or_else(|| {
+                anyhow::anyhow!("--server needs --cert (the server's certificate) or --config")
+            })?;
+        let (cc, ck) = match (&self.client_cert, &self.client_key) {
+            (Some(c), Some(k)) => (Some(c.clone()), Some(k.clone())),
+            _ => (
+                file.as_ref().and_then(|f| f.client_cert.clone()),
+                file.as_ref().and_then(|f| f.client_key.clone()),
+            ),
+        };
+        Ok(Some(NetConfig {
+            server,
+            transport,
+            cert: haptics_client::tls::read_cert(&cert)?,
+            identity: client_identity(&cert, cc.as_deref(), ck.as_deref())?,
+        }))
+    }
 }
 
 /// The workstation's client identity: `client_cert` and `client_key` when given (both or
@@ -413,19 +438,12 @@ mod tests {
             assert!(e.contains("ws.toml") && e.contains(want), "{e}");
         }
         // Flags win over the file; with neither naming a server there is nothing to connect.
-        assert!(
-            resolve(None, None, None, None, None, None)
-                .unwrap()
-                .is_none()
-        );
-        let e = resolve(
-            None,
-            Some("1.2.3.4:5".parse().unwrap()),
-            None,
-            None,
-            None,
-            None,
-        )
+        assert!(ConnectArgs::default().resolve().unwrap().is_none());
+        let e = ConnectArgs {
+            server: Some("1.2.3.4:5".parse().unwrap()),
+            ..ConnectArgs::default()
+        }
+        .resolve()
         .unwrap_err()
         .to_string();
         assert!(e.contains("--cert"), "{e}");

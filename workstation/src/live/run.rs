@@ -6,13 +6,11 @@
 //! driven as in the demo (strokes end at the button's release). On exit it saves the model to
 //! `--out`.
 
-use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use haptics_client::TransportKind;
 
 use super::demo::{drive_phases, hand_path, write_hand_path};
 use super::scene_file::SceneFile;
@@ -21,27 +19,9 @@ use super::{Workstation, save};
 /// Arguments of `workstation run`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RunArgs {
-    /// The connection as a TOML file ([server] address, transport, cert, client_cert,
-    /// client_key; see deploy/examples/lab-workstation.toml); flags override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// The haptics server (host:port); required unless --config gives it.
-    #[arg(long, value_name = "ADDR")]
-    pub server: Option<SocketAddr>,
-    /// Transport; must match the server's [default: udp].
-    #[arg(long, value_enum)]
-    pub transport: Option<TransportKind>,
-    /// The server's certificate (PEM), pinned: copy it from the haptics PC
-    /// (`haptics-server gen-cert` prints where it is); required unless --config gives it.
-    #[arg(long, value_name = "FILE")]
-    pub cert: Option<PathBuf>,
-    /// The workstation's client certificate (PEM), listed in the server's authorized clients
-    /// [default: client.pem next to --cert, where a local server creates it].
-    #[arg(long, value_name = "FILE", requires = "client_key")]
-    pub client_cert: Option<PathBuf>,
-    /// The client certificate's private key (PEM) [default: client.key next to --cert].
-    #[arg(long, value_name = "FILE", requires = "client_cert")]
-    pub client_key: Option<PathBuf>,
+    /// Where and how to connect.
+    #[command(flatten)]
+    pub connect: super::net::ConnectArgs,
     /// The scene (TOML; see examples/live/README.md).
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: PathBuf,
@@ -129,15 +109,10 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         .scene
         .parent()
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
-    let cfg = super::net::resolve(
-        args.config.as_deref(),
-        args.server,
-        args.transport,
-        args.cert.as_deref(),
-        args.client_cert.as_deref(),
-        args.client_key.as_deref(),
-    )?
-    .ok_or_else(|| anyhow::anyhow!("give --server and --cert, or --config FILE"))?;
+    let cfg = args
+        .connect
+        .resolve()?
+        .ok_or_else(|| anyhow::anyhow!("give --server and --cert, or --config FILE"))?;
     let (server, transport) = (cfg.server, cfg.transport);
     // SAFETY: installs an async-signal-safe handler that only stores to an atomic.
     unsafe {
