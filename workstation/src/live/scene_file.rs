@@ -334,8 +334,8 @@ pub struct RenderSpec {
 impl Default for RenderSpec {
     fn default() -> Self {
         Self {
-            width: 640,
-            height: 480,
+            width: 1280,
+            height: 720,
             view_dir: [-0.4, -0.5, -0.75],
             interval_s: 0.25,
         }

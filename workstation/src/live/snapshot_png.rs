@@ -19,7 +19,7 @@ pub struct RenderArgs {
     #[arg(long, short)]
     pub out: PathBuf,
     /// Image width and height (px).
-    #[arg(long, num_args = 2, default_values_t = [800, 600])]
+    #[arg(long, num_args = 2, default_values_t = [1280, 720])]
     pub size: Vec<u32>,
     /// Direction the camera looks along.
     #[arg(long, num_args = 3, default_values_t = [-0.35, -0.45, -1.0], allow_negative_numbers = true)]
