@@ -14,6 +14,7 @@ pub mod limits;
 pub mod live;
 pub mod logging;
 pub mod plot;
+pub mod relay;
 pub mod scenes;
 pub mod sculpt;
 pub mod status;

@@ -51,6 +51,11 @@ enum Command {
     /// size and rate in the same run. Writes report.json, samples.csv, rtt.hgrm, PNG plots and
     /// summary.md to --out. Without --server it measures an in-process server over loopback.
     Latency(workstation::latency::LatencyArgs),
+    /// A delayed, lossy link on any machine: forward the UDP hot path (and QUIC) datagram by
+    /// datagram with delay, jitter, loss, reordering and duplication, and the TCP control
+    /// connection with the same delay, from --listen to --to (a haptics server). Point the
+    /// workstation at --listen; neither end knows. For kernels without netem.
+    Relay(workstation::relay::RelayArgs),
     /// Echo UDP datagrams: the baseline peer for `latency --echo ADDR` on the server's machine.
     UdpEcho(workstation::latency::UdpEchoArgs),
     /// Time the haptic queries (field force, shaped probe, B-spline sculpt tick) with their force error.
@@ -76,6 +81,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Relay(args) => workstation::relay::run(&args),
         Command::Demo(args) => workstation::view::demo(&args),
         Command::View(args) => workstation::view::run(&args),
         Command::Run(args) => workstation::live::run::run(&args),

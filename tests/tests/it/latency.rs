@@ -166,3 +166,119 @@ fn bad_counts_get_named_errors() {
         assert!(!o.status.success() && err.contains(want), "{args:?}: {err}");
     }
 }
+
+/// A haptics server process (fake device, idle) on a free loopback port with a fresh
+/// certificate in `dir`; returns its guard and address once it listens.
+fn server_process(dir: &Path) -> (e2e_tests::ChildGuard, std::net::SocketAddr) {
+    let made = Command::new(binary("haptics-server"))
+        .args(["gen-cert", "--out"])
+        .arg(dir)
+        .output()
+        .expect("gen-cert");
+    assert!(made.status.success(), "gen-cert failed");
+    let addr = e2e_tests::loopback(e2e_tests::free_port());
+    let mut server = Command::new(binary("haptics-server"));
+    server
+        .args([
+            "--device",
+            "fake",
+            "--fake-path",
+            "idle",
+            "--no-realtime",
+            "--listen",
+        ])
+        .arg(addr.to_string())
+        .arg("--cert")
+        .arg(dir.join("cert.pem"))
+        .arg("--key")
+        .arg(dir.join("key.pem"));
+    let guard = e2e_tests::ChildGuard::spawn(server);
+    // The server creates the local client identity beside its certificate on start.
+    let start = std::time::Instant::now();
+    while !dir.join("client.key").exists() {
+        assert!(start.elapsed().as_secs() < 20, "the server did not start");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    (guard, addr)
+}
+
+/// `workstation relay --listen … --to server` with the given impairments.
+fn relay(to: std::net::SocketAddr, impairments: &[&str]) -> (e2e_tests::ChildGuard, String) {
+    let listen = e2e_tests::loopback(e2e_tests::free_port()).to_string();
+    let mut cmd = Command::new(binary("workstation"));
+    cmd.args(["relay", "--listen", &listen, "--to", &to.to_string()])
+        .args(impairments);
+    let guard = e2e_tests::ChildGuard::spawn(cmd);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    (guard, listen)
+}
+
+#[test]
+fn a_latency_run_through_the_relay_measures_its_delay_on_any_machine() {
+    const DELAY_MS: f64 = 5.0;
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, addr) = server_process(dir.path());
+    let (_relay, via) = relay(addr, &["--delay", "5"]);
+    let cert = dir.path().join("cert.pem");
+    let out = dir.path().join("out");
+    let r = latency(
+        &out,
+        &[
+            "--server",
+            &via,
+            "--cert",
+            cert.to_str().unwrap(),
+            "--duration",
+            "3",
+        ],
+    );
+    let rtt_ms = f(&r, "network_rtt_us.p50") / 1e3;
+    eprintln!("relay: {DELAY_MS} ms each way: network round trip p50 {rtt_ms:.2} ms");
+    assert!(
+        (2.0 * DELAY_MS..2.0 * DELAY_MS + 1.0).contains(&rtt_ms),
+        "network round trip p50 {rtt_ms} ms through a {DELAY_MS} ms-each-way relay"
+    );
+    for d in ["server_to_workstation", "workstation_to_server"] {
+        let p50 = f(&r, &format!("one_way_us.{d}.p50")) / 1e3;
+        let bound = f(&r, &format!("one_way_us.{d}.bound")) / 1e3;
+        eprintln!("relay: {d} one way p50 {p50:.2} ms ± {bound:.2} ms");
+        assert!(
+            (p50 - DELAY_MS).abs() <= bound + 0.5,
+            "{d}: one way p50 {p50} ms ± {bound} ms, configured {DELAY_MS} ms"
+        );
+    }
+    assert_eq!(r["sessions"], 1);
+}
+
+#[test]
+fn loss_through_the_relay_shows_in_both_directions() {
+    const LOSS: f64 = 0.02;
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, addr) = server_process(dir.path());
+    let (_relay, via) = relay(addr, &["--loss", "0.02", "--seed", "3"]);
+    let cert = dir.path().join("cert.pem");
+    let out = dir.path().join("out");
+    let r = latency(
+        &out,
+        &[
+            "--server",
+            &via,
+            "--cert",
+            cert.to_str().unwrap(),
+            "--duration",
+            "4",
+        ],
+    );
+    let n = f(&r, "samples").max(1000.0);
+    // Binomial sampling error at about a thousand packets a second, 4 standard deviations.
+    let tolerance = 4.0 * (LOSS * (1.0 - LOSS) / n).sqrt();
+    for d in ["server_to_workstation", "workstation_to_server"] {
+        let loss = f(&r, &format!("loss.{d}"));
+        eprintln!("relay: {d} loss {loss:.4} (configured {LOSS}, ± {tolerance:.4})");
+        assert!(
+            (loss - LOSS).abs() <= tolerance,
+            "{d}: measured loss {loss}, configured {LOSS} ± {tolerance}"
+        );
+    }
+}
