@@ -82,7 +82,7 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Relay(args) => workstation::relay::run(&args),
-        Command::Demo(args) => workstation::view::demo(&args),
+        Command::Demo(args) => workstation::live::demo::command(&args),
         Command::View(args) => workstation::view::run(&args),
         Command::Run(args) => workstation::live::run::run(&args),
         Command::HandPath(args) => workstation::live::run::hand_path_command(&args),
