@@ -127,6 +127,14 @@ pub fn client_config(
     Ok(cfg)
 }
 
+/// `sha256:` and the hex SHA-256 of a certificate's DER (what `openssl x509 -fingerprint
+/// -sha256` prints, lower-case without colons).
+pub fn fingerprint(cert: &CertificateDer<'_>) -> String {
+    let digest = ring::digest::digest(&ring::digest::SHA256, cert.as_ref());
+    let hex: String = digest.as_ref().iter().map(|b| format!("{b:02x}")).collect();
+    format!("sha256:{hex}")
+}
+
 /// The server name the client sends (SNI).
 pub fn server_name() -> ServerName<'static> {
     ServerName::try_from(SERVER_NAME)
@@ -152,9 +160,12 @@ impl ServerCertVerifier for PinnedCert {
         if end_entity.as_ref() == self.pinned.as_ref() {
             Ok(ServerCertVerified::assertion())
         } else {
-            Err(rustls::Error::General(
-                "server certificate does not match the pinned certificate".into(),
-            ))
+            Err(rustls::Error::General(format!(
+                "the server's certificate ({}) does not match the pinned certificate ({}): \
+                 copy the server's current cert.pem to this workstation",
+                fingerprint(end_entity),
+                fingerprint(&self.pinned)
+            )))
         }
     }
 

@@ -60,13 +60,7 @@ pub fn generate_client() -> Result<Identity, TlsError> {
     })
 }
 
-/// `sha256:` and the hex SHA-256 of a certificate's DER (what `openssl x509 -fingerprint
-/// -sha256` prints, lower-case without colons).
-pub fn fingerprint(cert: &CertificateDer<'_>) -> String {
-    let digest = ring::digest::digest(&ring::digest::SHA256, cert.as_ref());
-    let hex: String = digest.as_ref().iter().map(|b| format!("{b:02x}")).collect();
-    format!("sha256:{hex}")
-}
+pub use haptics_client::tls::fingerprint;
 
 /// The client certificates the server accepts: exact DER matches, like the client's pin of the
 /// server's certificate.

@@ -282,3 +282,64 @@ fn loss_through_the_relay_shows_in_both_directions() {
         );
     }
 }
+
+/// `workstation run --seconds 3` against `server` with `cert` pinned; its exit status and
+/// everything it printed.
+fn run_briefly(server: &str, cert: &Path, dir: &Path) -> (bool, String) {
+    // The demo's scene without its scripted phases: `run` just holds the session.
+    let demo = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/live/demo.toml"
+    ))
+    .unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, &demo[..demo.find("[[phase]]").unwrap()]).unwrap();
+    let o = Command::new(binary("workstation"))
+        .args(["run", "--server", server, "--cert"])
+        .arg(cert)
+        .arg("--scene")
+        .arg(&scene)
+        .args(["--seconds", "3", "--out"])
+        .arg(dir.join("run"))
+        .output()
+        .expect("run workstation run");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    (o.status.success(), text)
+}
+
+#[test]
+fn run_says_why_it_cannot_connect_and_fails_without_a_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, addr) = server_process(dir.path());
+    // A certificate that is not the server's: the mismatch, with both fingerprints.
+    let other = dir.path().join("other");
+    let made = Command::new(binary("haptics-server"))
+        .args(["gen-cert", "--out"])
+        .arg(&other)
+        .output()
+        .expect("gen-cert");
+    assert!(made.status.success());
+    let (ok, text) = run_briefly(&addr.to_string(), &other.join("cert.pem"), dir.path());
+    assert!(!ok, "exit status 0 without a session:\n{text}");
+    assert!(
+        text.contains("certificate mismatch") && text.matches("sha256:").count() >= 2,
+        "the mismatch and both fingerprints are said:\n{text}"
+    );
+    assert_eq!(
+        text.matches("cannot connect").count(),
+        1,
+        "said once, not at every retry:\n{text}"
+    );
+    // Nobody listening.
+    let nobody = e2e_tests::loopback(e2e_tests::free_port()).to_string();
+    let (ok, text) = run_briefly(&nobody, &dir.path().join("cert.pem"), dir.path());
+    assert!(!ok, "exit status 0 without a session:\n{text}");
+    assert!(text.contains("connection refused"), "{text}");
+    // The right certificate: a session, exit 0.
+    let (ok, text) = run_briefly(&addr.to_string(), &dir.path().join("cert.pem"), dir.path());
+    assert!(ok, "{text}");
+}

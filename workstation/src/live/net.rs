@@ -256,6 +256,7 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
     };
     rt.block_on(async move {
         let mut backoff = Duration::from_millis(100);
+        let mut said: Option<String> = None;
         while !shared.stopping() {
             let mut ccfg = ClientConfig::new(cfg.server, cfg.transport, cfg.cert.clone());
             ccfg.identity = cfg.identity.clone();
@@ -263,6 +264,8 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
             match Client::connect(&ccfg).await {
                 Ok(client) => {
                     let began = Instant::now();
+                    shared.net.connect_error.store(None);
+                    said = None;
                     shared.net.sessions.fetch_add(1, Ordering::Relaxed);
                     tracing::info!(
                         server = %cfg.server,
@@ -293,18 +296,64 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
                     message,
                 }) => {
                     // Retrying cannot help: the server's list or our identity must change.
-                    tracing::error!("the server refused this workstation: {message}");
+                    let reason = format!(
+                        "{}: the server refused this workstation: {message}",
+                        cfg.server
+                    );
+                    tracing::error!("{reason}");
+                    shared.net.connect_error.store(Some(Arc::new(reason)));
                     shared.request_stop();
                     return;
                 }
                 Err(e) => {
-                    tracing::debug!("connect to {} failed: {e}", cfg.server);
+                    let reason = format!("{}: {}", cfg.server, why_not_connected(&e));
+                    // Said on the console when the reason changes, not at every retry.
+                    if said.as_deref() != Some(reason.as_str()) {
+                        tracing::warn!("cannot connect to {reason}; retrying");
+                        said = Some(reason.clone());
+                    }
+                    shared.net.connect_error.store(Some(Arc::new(reason)));
                     tokio::time::sleep(backoff).await;
                     backoff = (backoff * 2).min(Duration::from_secs(2));
                 }
             }
         }
     });
+}
+
+/// A connection attempt's failure in the words a person at the workstation needs: what is
+/// wrong and what to do about it.
+pub fn why_not_connected(e: &ClientError) -> String {
+    use std::io::ErrorKind;
+    let io_kind = |e: &ClientError| match e {
+        ClientError::Io(io) => Some(io.kind()),
+        ClientError::Transport(haptics_client::framing::TransportError::Io(io)) => Some(io.kind()),
+        _ => None,
+    };
+    let text = e.to_string();
+    match e {
+        _ if text.contains("does not match the pinned certificate") => {
+            format!("certificate mismatch: {text}")
+        }
+        ClientError::Refused { code, message } => match code {
+            ErrorCode::Unauthenticated => format!(
+                "unauthenticated: {message} (add this workstation's client certificate to the \
+                 server's authorized_clients)"
+            ),
+            ErrorCode::Busy => format!("busy: another workstation holds the session ({message})"),
+            ErrorCode::VersionMismatch => format!(
+                "protocol version mismatch: {message} (update the older of server and \
+                 workstation)"
+            ),
+            _ => format!("refused ({code:?}): {message}"),
+        },
+        ClientError::Timeout(what) => format!("timed out waiting for {what}"),
+        _ if matches!(io_kind(e), Some(ErrorKind::ConnectionRefused)) => {
+            "connection refused: no haptics server is listening there".to_owned()
+        }
+        _ if matches!(io_kind(e), Some(ErrorKind::TimedOut)) => "timed out".to_owned(),
+        _ => text,
+    }
 }
 
 async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Result<(), ClientError> {

@@ -142,7 +142,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         }
     }
     let mut last = Instant::now();
-    while outcome.is_ok() && !done() {
+    while outcome.is_ok() && !done() && !ws.shared.stopping() {
         std::thread::sleep(Duration::from_millis(50));
         if last.elapsed() >= Duration::from_secs(1) {
             last = Instant::now();
@@ -150,9 +150,12 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             println!(
                 "{} force {:.0} Hz (p99 {:.0} µs) · sim {:.0} Hz · rtt p50 {:.0} µs · clock offset {:.0} ± {:.0} µs · sessions {}",
                 if ws.connected() {
-                    "connected"
+                    "connected".to_owned()
                 } else {
-                    "waiting for the server"
+                    match ws.shared.net.connect_error.load_full() {
+                        Some(why) => format!("not connected ({why})"),
+                        None => "waiting for the server".to_owned(),
+                    }
                 },
                 s.force_loop_hz,
                 s.force_loop_period_us.p99,
@@ -164,6 +167,8 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             );
         }
     }
+    let never_connected = ws.stats().sessions == 0;
+    let why = ws.shared.net.connect_error.load_full();
     let core = ws.finish()?;
     let saved = save(&core, &args.out, scene.mesh_resolution)?;
     println!(
@@ -172,5 +177,12 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         saved.triangles,
         args.out.display()
     );
+    if never_connected {
+        anyhow::bail!(
+            "never had a session: {}",
+            why.as_deref()
+                .map_or(format!("{server} did not answer"), |w| w.to_string())
+        );
+    }
     outcome
 }

@@ -303,6 +303,10 @@ pub struct NetStats {
     pub servo_hz: AtomicF64,
     /// The last `Stats`' servo ticks and uptime (ns), for the rate.
     pub server_ticks: [AtomicU64; 2],
+    /// Why the last attempt to connect failed (certificate mismatch, unauthenticated, busy,
+    /// version mismatch, refused, timed out), for the window's status line; cleared when a
+    /// session comes up. Written by the network thread at its retry rate, read by anyone.
+    pub connect_error: ArcSwapOption<String>,
 }
 
 /// Everything shared between the threads of one workstation.
