@@ -241,14 +241,17 @@ impl ViewApp {
         let s = &self.link.shared;
         let connected = s.net.connected.load(Ordering::Relaxed);
         ui.label(format!("cursor: {}", self.link.source));
+        let why = s.net.connect_error.load_full();
         ui.label(if s.stopping() {
-            "session ended".to_owned()
+            why.map_or("session ended".to_owned(), |w| format!("stopped: {w}"))
         } else if connected {
             format!(
                 "connected · sessions {} · cursors {}",
                 s.net.sessions.load(Ordering::Relaxed),
                 s.net.cursors.load(Ordering::Relaxed)
             )
+        } else if let Some(why) = why {
+            format!("not connected: {why} (retrying)")
         } else {
             "waiting for the server …".to_owned()
         });
