@@ -21,6 +21,7 @@
 //! A malformed, forged, replayed or out-of-range packet is rejected with a specific
 //! [`DecodeError`] variant; nothing here panics on any input.
 
+pub mod applied_age;
 pub mod clock;
 pub mod control;
 pub mod deadband;
@@ -33,6 +34,7 @@ pub mod session;
 pub mod sim_link;
 mod wire;
 
+pub use applied_age::{AppliedAge, AppliedAgeFractions};
 pub use clock::{ClockEstimate, ClockEstimator, ClockSample};
 pub use control::{Control, FrameDecoder};
 pub use deadband::{CursorDeadband, Deadband, DeadbandParams, ForceDeadband};

@@ -306,6 +306,8 @@ struct Pending {
     answers_ns: u64,
     /// When that cursor arrived, workstation clock.
     cursor_arrived_ns: u64,
+    /// The answered cursor's servo tick.
+    answers_tick: u32,
     live: bool,
 }
 
@@ -385,6 +387,8 @@ pub struct Measured {
     pub sessions: u64,
     /// Seconds measured.
     pub seconds: f64,
+    /// Every cursor received, by the age of the command its tick applied.
+    pub applied: protocol::AppliedAge,
 }
 
 /// One session phase: connect, answer cursors for `--duration`, collect the server's `Stats`.
@@ -434,6 +438,7 @@ async fn measure(
         clock: None,
         sessions: 1,
         seconds: args.duration,
+        applied: protocol::AppliedAge::default(),
     };
     let mut phase = PhaseState {
         pending: vec![Pending::default(); PENDING],
@@ -503,8 +508,8 @@ async fn measure(
     while m.server.ticks <= phase.last_tick {
         tokio::select! {
             r = hot.recv_cursor() => {
-                let (packet, _) = r?;
-                answer(&mut hot, &mut phase.pending, packet.sequence, packet.timestamp_ns, clock.now_ns())?;
+                let (packet, cursor) = r?;
+                answer(&mut hot, &mut phase.pending, packet.sequence, (packet.timestamp_ns, cursor.servo_tick), clock.now_ns())?;
             }
             msg = control.recv() => match msg? {
                 Control::Stats(s) => m.server = s,
@@ -543,6 +548,11 @@ impl PhaseState {
     ) -> anyhow::Result<()> {
         self.tracker.record(packet.sequence);
         self.last_tick = u64::from(cursor.servo_tick);
+        let answers_tick = cursor.ack.and_then(|ack| {
+            let p = &self.pending[ack.sequence as usize % PENDING];
+            (p.sequence == ack.sequence && p.sent_ns > 0).then_some(p.answers_tick)
+        });
+        m.applied.record(cursor.servo_tick, answers_tick);
         if let Some(ack) = cursor.ack {
             let p = &mut self.pending[ack.sequence as usize % PENDING];
             if p.live && p.sequence == ack.sequence {
@@ -570,7 +580,7 @@ impl PhaseState {
                 hot,
                 &mut self.pending,
                 packet.sequence,
-                packet.timestamp_ns,
+                (packet.timestamp_ns, cursor.servo_tick),
                 t3,
             )?;
             m.commands_sent += 1;
@@ -628,7 +638,7 @@ fn answer(
     hot: &mut HotPath,
     pending: &mut [Pending],
     sequence: u32,
-    timestamp_ns: u64,
+    (timestamp_ns, answers_tick): (u64, u32),
     arrived_ns: u64,
 ) -> anyhow::Result<()> {
     let cmd = ForceCommand {
@@ -643,6 +653,7 @@ fn answer(
             sent_ns,
             answers_ns: timestamp_ns,
             cursor_arrived_ns: arrived_ns,
+            answers_tick,
             live: true,
         };
     }

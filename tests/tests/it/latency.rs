@@ -55,6 +55,18 @@ fn check_report(r: &Value, dir: &Path, seconds: f64) {
             "{t} {key}: {p50} {p99} {p999} {max}"
         );
     }
+    // Every cursor counted once by the age of the command its tick applied.
+    let a = &r["applied_age_ticks"];
+    let sum: f64 = ["next_tick", "two_ticks", "three_or_more", "no_command"]
+        .iter()
+        .map(|k| a[k].as_f64().unwrap())
+        .sum();
+    assert!((sum - 1.0).abs() < 1e-9, "{t}: applied_age_ticks {a}");
+    assert!(
+        f(r, "applied_age_ticks.ticks") > 0.5 * 1000.0 * seconds,
+        "{t}: {a}"
+    );
+    eprintln!("{t}: applied_age_ticks {a}");
     // The cursor → force round trip contains the network round trip plus the turnaround.
     assert!(
         f(r, "network_rtt_us.p50") <= f(r, "rtt_us.p50") * 1.02,
@@ -248,6 +260,13 @@ fn a_latency_run_through_the_relay_measures_its_delay_on_any_machine() {
             "{d}: one way p50 {p50} ms ± {bound} ms, configured {DELAY_MS} ms"
         );
     }
+    // 10 ms there and back is 10 servo ticks: no tick can apply the answer to the previous
+    // tick's cursor, so the age measure must see nearly every tick as late.
+    let late = f(&r, "applied_age_ticks.three_or_more");
+    assert!(
+        late > 0.95,
+        "through 10 ms of round trip {late} of ticks applied a command ≥ 3 ticks old"
+    );
     assert_eq!(r["sessions"], 1);
 }
 

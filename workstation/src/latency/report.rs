@@ -284,6 +284,9 @@ pub struct Report {
     pub reordered: PerDirection<u64>,
     /// Duplicated packets each way.
     pub duplicates: PerDirection<u64>,
+    /// The age of the command each servo tick applied, in ticks after the cursor it answers
+    /// (every cursor received; the goal on loopback: ≥ 99.9 % `next_tick` at --rate 1000).
+    pub applied_age_ticks: protocol::AppliedAgeFractions,
     /// The bare UDP ping-pong of the same size and rate, same run, µs.
     pub baseline_udp_rtt_us: Percentiles,
     /// Its pings answered.
@@ -403,6 +406,7 @@ impl Report {
                 server_to_workstation: m.cursors.duplicates,
                 workstation_to_server: fs.duplicates,
             },
+            applied_age_ticks: m.applied.fractions(),
             baseline_udp_rtt_us: baseline,
             baseline_samples: base.rtt_ns.len(),
             baseline_loss: fraction(base.lost, base.rtt_ns.len() as u64),
@@ -527,6 +531,16 @@ pub fn summary(r: &Report) -> String {
         r.ratio_p99,
         r.goal.ratio_limit,
         if r.goal.met { "met" } else { "NOT met" }
+    );
+    let a = &r.applied_age_ticks;
+    let _ = write!(
+        s,
+        "Command each servo tick applied ({} ticks): the answer to the previous tick's cursor {:.3} %, one tick late {:.3} %, two or more {:.3} %, none yet {:.3} % (goal ≥ 99.9 % the next tick).\n\n",
+        a.ticks,
+        a.next_tick * 100.0,
+        a.two_ticks * 100.0,
+        a.three_or_more * 100.0,
+        a.no_command * 100.0
     );
     let (d, u) = (
         &r.one_way_us.server_to_workstation,
