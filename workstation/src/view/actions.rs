@@ -165,41 +165,50 @@ impl ViewApp {
         });
         self.shot_path = Some(path);
     }
+
+    /// The actions of the keys pressed this frame (none while a text field has the keyboard).
+    /// Each key's Ctrl is read from its own event, not from the frame's modifiers: at a low
+    /// frame rate a quick Ctrl+E is over (Ctrl up again) before the frame that sees it.
     pub(super) fn keys(&mut self, ctx: &egui::Context) -> Vec<Action> {
         if ctx.egui_wants_keyboard_input() {
             return Vec::new();
         }
         let mut actions = Vec::new();
+        let mut quit = false;
         ctx.input(|i| {
-            for (k, key) in [
-                egui::Key::Num1,
-                egui::Key::Num2,
-                egui::Key::Num3,
-                egui::Key::Num4,
-                egui::Key::Num5,
-                egui::Key::Num6,
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                if i.key_pressed(key) && !i.modifiers.ctrl {
-                    actions.push(Action::Select(panel::TOOLS[k].0));
+            for e in &i.events {
+                let egui::Event::Key {
+                    key,
+                    pressed: true,
+                    repeat: false,
+                    modifiers,
+                    ..
+                } = e
+                else {
+                    continue;
+                };
+                let number = [
+                    egui::Key::Num1,
+                    egui::Key::Num2,
+                    egui::Key::Num3,
+                    egui::Key::Num4,
+                    egui::Key::Num5,
+                    egui::Key::Num6,
+                ]
+                .iter()
+                .position(|k| k == key);
+                match (modifiers.ctrl, key, number) {
+                    (false, _, Some(k)) => actions.push(Action::Select(panel::TOOLS[k].0)),
+                    (false, egui::Key::F, _) => actions.push(Action::Frame),
+                    (true, egui::Key::S, _) => actions.push(Action::SaveScene),
+                    (true, egui::Key::E, _) => actions.push(Action::Export),
+                    (true, egui::Key::Q, _) => quit = true,
+                    (_, egui::Key::F12, _) => actions.push(Action::Screenshot),
+                    _ => {}
                 }
             }
-            if i.key_pressed(egui::Key::F) && !i.modifiers.ctrl {
-                actions.push(Action::Frame);
-            }
-            if i.modifiers.ctrl && i.key_pressed(egui::Key::S) {
-                actions.push(Action::SaveScene);
-            }
-            if i.modifiers.ctrl && i.key_pressed(egui::Key::E) {
-                actions.push(Action::Export);
-            }
-            if i.key_pressed(egui::Key::F12) {
-                actions.push(Action::Screenshot);
-            }
         });
-        if ctx.input(|i| i.modifiers.ctrl && i.key_pressed(egui::Key::Q)) {
+        if quit {
             self.close(ctx);
         }
         actions
