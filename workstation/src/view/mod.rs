@@ -31,6 +31,7 @@ mod app;
 mod input;
 pub mod orbit;
 pub mod panel;
+pub mod pick;
 pub mod plots;
 mod scene;
 
