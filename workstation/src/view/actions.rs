@@ -116,7 +116,7 @@ impl ViewApp {
             Action::Load(path) => self.load(&path),
             Action::Frame => {
                 self.orbit = None;
-                self.depth = 0.0;
+                self.stylus.reset();
             }
         }
     }
@@ -138,7 +138,7 @@ impl ViewApp {
                 starter.scene = Some(path.to_path_buf());
                 self.owned = Some((ws, starter));
                 self.orbit = None;
-                self.depth = 0.0;
+                self.stylus.reset();
                 self.say(format!("loaded {}", path.display()));
             }
             Err(e) => {
