@@ -4,7 +4,6 @@
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 
-use anyhow::Context as _;
 use eframe::egui;
 use glam::DVec3;
 
@@ -220,26 +219,4 @@ fn stamp() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs())
-}
-
-pub(super) fn save_color_image(image: &egui::ColorImage, path: &Path) -> anyhow::Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    let [w, h] = image.size;
-    let rgba = image
-        .pixels
-        .iter()
-        .flat_map(|c| {
-            let [r, g, b, _] = c.to_array();
-            [r, g, b, 255]
-        })
-        .collect();
-    render::Image {
-        width: w as u32,
-        height: h as u32,
-        rgba,
-    }
-    .save_png(path)?;
-    Ok(())
 }

@@ -11,11 +11,10 @@ use anyhow::Context as _;
 use eframe::egui::{self, Sense};
 use glam::DVec3;
 
-use super::actions::save_color_image;
 use super::orbit::Orbit;
 use super::panel::{Panel, Pending};
 use super::plots::{History, Sample};
-use super::scene::Gpu;
+use super::scene::{Gpu, save_color_image};
 use super::stylus::{self, MouseStylus};
 use super::{Exit, Link, Starter};
 use crate::live::Workstation;

@@ -30,11 +30,12 @@
 //! - `actions`: what the panel's buttons and the keys do;
 //! - `input`: the camera and the mouse as the device;
 //! - [`stylus`], [`pick`]: what the mouse does with each tool, and the ray cast under it;
-//! - `scene`: the scene's texture and the renderer drawing into it;
+//! - `scene`: the scene's texture and the renderer drawing into it, screenshots to PNG;
 //! - [`orbit`], [`panel`], [`plots`]: the camera's math, the control panel, the live plots.
 //!
-//! Inside the window: `app` → `actions`, `input`, `scene`; `input` → [`stylus`] → [`pick`];
-//! all of them → `crate::live`.
+//! Inside the window: `app`, `actions` and `input` are one type's (the app's) methods split by
+//! job; `app` → `scene`, [`orbit`], [`panel`], [`plots`]; `input` → [`stylus`] → [`pick`]; all
+//! of them → `crate::live`.
 
 mod actions;
 mod app;
