@@ -4,7 +4,6 @@
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 
-use anyhow::Context as _;
 use eframe::egui;
 use glam::DVec3;
 
@@ -116,7 +115,7 @@ impl ViewApp {
             Action::Load(path) => self.load(&path),
             Action::Frame => {
                 self.orbit = None;
-                self.depth = 0.0;
+                self.stylus.reset();
             }
         }
     }
@@ -138,7 +137,7 @@ impl ViewApp {
                 starter.scene = Some(path.to_path_buf());
                 self.owned = Some((ws, starter));
                 self.orbit = None;
-                self.depth = 0.0;
+                self.stylus.reset();
                 self.say(format!("loaded {}", path.display()));
             }
             Err(e) => {
@@ -165,41 +164,50 @@ impl ViewApp {
         });
         self.shot_path = Some(path);
     }
+
+    /// The actions of the keys pressed this frame (none while a text field has the keyboard).
+    /// Each key's Ctrl is read from its own event, not from the frame's modifiers: at a low
+    /// frame rate a quick Ctrl+E is over (Ctrl up again) before the frame that sees it.
     pub(super) fn keys(&mut self, ctx: &egui::Context) -> Vec<Action> {
         if ctx.egui_wants_keyboard_input() {
             return Vec::new();
         }
         let mut actions = Vec::new();
+        let mut quit = false;
         ctx.input(|i| {
-            for (k, key) in [
-                egui::Key::Num1,
-                egui::Key::Num2,
-                egui::Key::Num3,
-                egui::Key::Num4,
-                egui::Key::Num5,
-                egui::Key::Num6,
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                if i.key_pressed(key) && !i.modifiers.ctrl {
-                    actions.push(Action::Select(panel::TOOLS[k].0));
+            for e in &i.events {
+                let egui::Event::Key {
+                    key,
+                    pressed: true,
+                    repeat: false,
+                    modifiers,
+                    ..
+                } = e
+                else {
+                    continue;
+                };
+                let number = [
+                    egui::Key::Num1,
+                    egui::Key::Num2,
+                    egui::Key::Num3,
+                    egui::Key::Num4,
+                    egui::Key::Num5,
+                    egui::Key::Num6,
+                ]
+                .iter()
+                .position(|k| k == key);
+                match (modifiers.ctrl, key, number) {
+                    (false, _, Some(k)) => actions.push(Action::Select(panel::TOOLS[k].0)),
+                    (false, egui::Key::F, _) => actions.push(Action::Frame),
+                    (true, egui::Key::S, _) => actions.push(Action::SaveScene),
+                    (true, egui::Key::E, _) => actions.push(Action::Export),
+                    (true, egui::Key::Q, _) => quit = true,
+                    (_, egui::Key::F12, _) => actions.push(Action::Screenshot),
+                    _ => {}
                 }
             }
-            if i.key_pressed(egui::Key::F) && !i.modifiers.ctrl {
-                actions.push(Action::Frame);
-            }
-            if i.modifiers.ctrl && i.key_pressed(egui::Key::S) {
-                actions.push(Action::SaveScene);
-            }
-            if i.modifiers.ctrl && i.key_pressed(egui::Key::E) {
-                actions.push(Action::Export);
-            }
-            if i.key_pressed(egui::Key::F12) {
-                actions.push(Action::Screenshot);
-            }
         });
-        if ctx.input(|i| i.modifiers.ctrl && i.key_pressed(egui::Key::Q)) {
+        if quit {
             self.close(ctx);
         }
         actions
@@ -211,26 +219,4 @@ fn stamp() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs())
-}
-
-pub(super) fn save_color_image(image: &egui::ColorImage, path: &Path) -> anyhow::Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    let [w, h] = image.size;
-    let rgba = image
-        .pixels
-        .iter()
-        .flat_map(|c| {
-            let [r, g, b, _] = c.to_array();
-            [r, g, b, 255]
-        })
-        .collect();
-    render::Image {
-        width: w as u32,
-        height: h as u32,
-        rgba,
-    }
-    .save_png(path)?;
-    Ok(())
 }

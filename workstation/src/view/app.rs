@@ -11,11 +11,11 @@ use anyhow::Context as _;
 use eframe::egui::{self, Sense};
 use glam::DVec3;
 
-use super::actions::save_color_image;
 use super::orbit::Orbit;
 use super::panel::{Panel, Pending};
 use super::plots::{History, Sample};
-use super::scene::Gpu;
+use super::scene::{Gpu, save_color_image};
+use super::stylus::{self, MouseStylus};
 use super::{Exit, Link, Starter};
 use crate::live::Workstation;
 use crate::live::frames::{self, SplatCache};
@@ -35,18 +35,49 @@ struct StateFile<'a> {
     tool_buttons: BTreeMap<&'static str, [f32; 4]>,
     /// Where the scene view is, in window pixels.
     view: [f32; 4],
+    /// Where the centre of the points is seen, in window pixels.
+    object_centre: Option<[f32; 2]>,
+    /// Where the centre of the sculpting region is seen, in window pixels.
+    region_centre: Option<[f32; 2]>,
+    /// The mouse as the stylus (absent when a device drives the cursor).
+    mouse: Option<MouseState>,
     messages: &'a VecDeque<String>,
 }
 
 /// The window's app: the session it shows, the camera, the panel, the plots and when to exit.
+/// The mouse stylus in `--state` JSON (scene metres).
+#[derive(Debug, serde::Serialize)]
+struct MouseState {
+    /// The selected tool's depth (see [`super::stylus`]).
+    tool_depth_m: f64,
+    /// The surface under the mouse.
+    hit: Option<[f64; 3]>,
+    /// The surface point the press in progress grabbed.
+    grabbed: Option<[f64; 3]>,
+    /// Where the mouse is, window pixels (the one the hit is under).
+    pointer: Option<[f32; 2]>,
+    /// The cursor the mouse thread streams, and its buttons.
+    cursor: [f64; 3],
+    buttons: u16,
+}
+
+/// The mean of `points`, `None` when there are none.
+fn centroid(points: &[DVec3]) -> Option<DVec3> {
+    (!points.is_empty()).then(|| points.iter().sum::<DVec3>() / points.len() as f64)
+}
+
 pub(super) struct ViewApp {
     pub(super) link: Link,
     pub(super) owned: Option<(Workstation, Starter)>,
     pub(super) gpu: Gpu,
     pub(super) splats: SplatCache,
     pub(super) orbit: Option<Orbit>,
-    /// The mouse cursor's plane: metres from the eye.
-    pub(super) depth: f64,
+    /// The mouse as the stylus (used when the mouse is the device).
+    pub(super) stylus: MouseStylus,
+    /// The points' typical spacing for picking them, and the point count it was measured at.
+    pub(super) pick_spacing: Option<(usize, f64)>,
+    /// Where the mouse was over the view this frame, window pixels.
+    pub(super) pointer: Option<egui::Pos2>,
     pub(super) panel: Panel,
     pub(super) pending: Vec<Pending>,
     pub(super) messages: VecDeque<String>,
@@ -89,7 +120,9 @@ impl ViewApp {
             gpu: Gpu::new(state),
             splats: SplatCache::default(),
             orbit: None,
-            depth: 0.0,
+            stylus: MouseStylus::default(),
+            pick_spacing: None,
+            pointer: None,
             panel,
             pending: Vec::new(),
             messages: VecDeque::new(),
@@ -225,6 +258,29 @@ impl ViewApp {
             points: snap.as_ref().map_or(0, |s| s.positions.len()),
             tool_buttons: self.tool_rects.iter().map(|(k, r)| (*k, px(r))).collect(),
             view: px(&self.view_rect),
+            object_centre: snap
+                .as_ref()
+                .and_then(|s| centroid(&s.positions))
+                .and_then(|c| self.seen(c)),
+            region_centre: snap
+                .as_ref()
+                .and_then(|s| s.region)
+                .and_then(|(lo, hi)| self.seen(0.5 * (lo + hi))),
+            mouse: self.link.mouse.as_ref().map(|hand| {
+                let (cursor, buttons) = hand.get();
+                let tool = snap
+                    .as_ref()
+                    .and_then(|s| s.tool)
+                    .unwrap_or(self.panel.tool);
+                MouseState {
+                    tool_depth_m: self.stylus.depth(tool),
+                    hit: self.stylus.hit().map(|h| h.point.to_array()),
+                    grabbed: self.stylus.grabbed().map(|h| h.point.to_array()),
+                    pointer: self.pointer.map(|p| [p.x, p.y]),
+                    cursor: cursor.to_array(),
+                    buttons,
+                }
+            }),
             messages: &self.messages,
         };
         let tmp = path.with_extension("json.tmp");
@@ -235,6 +291,15 @@ impl ViewApp {
         if let Err(e) = written {
             tracing::warn!("writing {}: {e:#}", path.display());
         }
+    }
+
+    /// Where `p` is seen in the window (pixels), if in front of the camera.
+    fn seen(&self, p: DVec3) -> Option<[f32; 2]> {
+        let r = self.view_rect;
+        let (x, y) = self
+            .orbit?
+            .project(p, r.width() as f64, r.height() as f64)?;
+        Some([r.min.x + x as f32, r.min.y + y as f32])
     }
 
     fn status(&self, ui: &mut egui::Ui) {
@@ -288,24 +353,8 @@ impl ViewApp {
             let (lo, hi) = frames::scene_bounds(&snap);
             Orbit::framing(lo, hi, DVec3::from(self.link.scene.render.view_dir))
         });
-        if self.depth <= 0.0 || !self.depth.is_finite() {
-            // The cursor's plane starts just in front of the nearest point: the wheel then
-            // pushes it into the surface.
-            let (eye, f) = (orbit.eye(), orbit.forward());
-            let nearest = snap
-                .positions
-                .iter()
-                .map(|p| (*p - eye).dot(f))
-                .fold(f64::INFINITY, f64::min);
-            self.depth = if nearest.is_finite() && nearest > 0.0 {
-                nearest - 0.02 * orbit.scene_radius
-            } else {
-                orbit.distance
-            };
-        }
-
-        self.camera_input(ui, &response, &mut orbit, rect.height() as f64);
-        self.mouse_input(ui, &response, &orbit, rect);
+        self.camera_input(ui, &response, &mut orbit, &snap);
+        self.mouse_input(ui, &response, &orbit, rect, &snap);
         self.orbit = Some(orbit);
 
         // Draw.
@@ -328,9 +377,13 @@ impl ViewApp {
             }
         }
         let hint = if self.link.mouse.is_some() {
-            "mouse = stylus: move · left button presses · wheel: nearer/farther\nright-drag orbit · middle-drag pan · Ctrl+wheel zoom · F frame"
+            let tool = snap.tool.unwrap_or(self.panel.tool);
+            format!(
+                "mouse = stylus · {}\nright-drag orbit · middle-drag pan · Ctrl+wheel zoom · F frame",
+                stylus::hint(tool, self.stylus.depth(tool))
+            )
         } else {
-            "right-drag orbit · middle-drag pan · wheel zoom · F frame"
+            "right-drag orbit · middle-drag pan · wheel zoom · F frame".to_owned()
         };
         ui.painter().text(
             rect.left_bottom() + egui::vec2(8.0, -8.0),

@@ -1,21 +1,29 @@
 //! Input in the scene view: the camera (right-drag orbits, middle-drag or Shift + right-drag
-//! pans, Ctrl + wheel zooms; the wheel alone zooms too when a device is connected) and, without
-//! a device, the mouse as the device.
+//! pans, Ctrl + wheel zooms; the wheel alone zooms too when a device drives the cursor) and,
+//! without a device, the mouse as the stylus ([`super::stylus`]: the left button presses,
+//! Shift turns the rope inward, the wheel sets the tool's depth).
+
+use std::sync::Arc;
 
 use eframe::egui::{self, PointerButton};
 
 use super::app::ViewApp;
 use super::orbit::Orbit;
+use super::pick::typical_spacing;
+use super::stylus::{DEPTH_PER_SCROLL_POINT_M, MouseFrame};
+use crate::live::shared::RenderSnapshot;
 
 impl ViewApp {
-    /// Orbit, pan and zoom from the pointer over the view (`h`: the view's height in points).
+    /// Orbit, pan and zoom from the pointer over the view; the wheel sets the mouse stylus's
+    /// depth when the mouse is the device.
     pub(super) fn camera_input(
         &mut self,
         ui: &egui::Ui,
         response: &egui::Response,
         orbit: &mut Orbit,
-        h: f64,
+        snap: &RenderSnapshot,
     ) {
+        let h = response.rect.height() as f64;
         let shift = ui.input(|i| i.modifiers.shift);
         if response.dragged_by(PointerButton::Middle)
             || (shift && response.dragged_by(PointerButton::Secondary))
@@ -33,11 +41,10 @@ impl ViewApp {
             }
             if scroll != 0.0 {
                 if self.link.mouse.is_some() {
-                    // Wheel up pushes the cursor's plane away from the eye.
-                    self.depth = (self.depth - scroll * 2e-4 * orbit.distance).clamp(
-                        0.05 * orbit.distance,
-                        orbit.distance + 3.0 * orbit.scene_radius,
-                    );
+                    // Wheel up takes the tool deeper (away from the eye).
+                    let tool = snap.tool.unwrap_or(self.panel.tool);
+                    self.stylus
+                        .add_depth(tool, scroll * DEPTH_PER_SCROLL_POINT_M);
                 } else {
                     orbit.zoom((-scroll * 0.002).exp());
                 }
@@ -45,28 +52,54 @@ impl ViewApp {
         }
     }
 
-    /// The mouse as the device (when it is): the cursor under the mouse, the left button as the
-    /// stylus button. `rect`: the view, `w` × `h` points.
+    /// The mouse as the device (when it is): the stylus's cursor for the mouse over `rect`,
+    /// streamed by the mouse thread.
     pub(super) fn mouse_input(
         &mut self,
         ui: &egui::Ui,
         response: &egui::Response,
         orbit: &Orbit,
         rect: egui::Rect,
+        snap: &Arc<RenderSnapshot>,
     ) {
-        let Some(hand) = &self.link.mouse else {
+        let Some(hand) = self.link.mouse.clone() else {
+            return;
+        };
+        let pointer = response.hover_pos().or(response.interact_pointer_pos());
+        self.pointer = pointer.map(|p| p * ui.ctx().pixels_per_point());
+        let Some(p) = pointer else {
+            let (at, buttons) = self.stylus.leave();
+            hand.set(at, buttons);
             return;
         };
         let (w, h) = (rect.width() as f64, rect.height() as f64);
-        let pressed = response.is_pointer_button_down_on()
-            && ui.input(|i| i.pointer.button_down(PointerButton::Primary));
-        if let Some(p) = response.hover_pos().or(response.interact_pointer_pos()) {
-            let q = p - rect.min;
-            let at = orbit.point_at_depth(q.x as f64, q.y as f64, w, h, self.depth);
-            hand.set(at, u16::from(pressed));
-        } else {
-            let (at, _) = hand.get();
-            hand.set(at, 0);
+        let q = p - rect.min;
+        let (x, y) = (q.x as f64, q.y as f64);
+        let (origin, dir) = orbit.ray(x, y, w, h);
+        let per_m = orbit.metres_per_pixel_per_metre(h);
+        // Points are hit within about their spacing (measured when their count changes), and
+        // never less than two pixels at the target.
+        let n = snap.positions.len();
+        if self.pick_spacing.is_none_or(|(m, _)| m != n) {
+            self.pick_spacing = typical_spacing(&snap.positions).map(|s| (n, s));
         }
+        let spacing = self.pick_spacing.map_or(0.0, |(_, s)| s);
+        let frame = MouseFrame {
+            tool: snap.tool.unwrap_or(self.panel.tool),
+            origin,
+            dir,
+            forward: orbit.forward(),
+            pixel: (x, y),
+            metres_per_point_per_m: per_m,
+            start_depth: orbit.distance,
+            pressed: response.is_pointer_button_down_on()
+                && ui.input(|i| i.pointer.button_down(PointerButton::Primary)),
+            shift: ui.input(|i| i.modifiers.shift),
+            field: self.link.shared.field.load_full(),
+            snapshot: Arc::clone(snap),
+            radius: spacing.max(2.0 * per_m * orbit.distance),
+        };
+        let (at, buttons) = self.stylus.update(&frame);
+        hand.set(at, buttons);
     }
 }

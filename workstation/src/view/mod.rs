@@ -13,9 +13,15 @@
 //!
 //! Input in the view: right-drag orbits, middle-drag (or Shift + right-drag) pans, Ctrl + wheel
 //! zooms, F frames the scene. Without a device (`workstation view` without `--server`) the mouse
-//! is the device: it moves the cursor in the plane facing the camera, the wheel moves that
-//! plane nearer or farther, and the left button is the stylus button. Keys: 1–6 select tools,
-//! Ctrl+S saves the scene, Ctrl+E exports PLY/OBJ/STL, F12 saves a screenshot, Ctrl+Q quits.
+//! is the stylus ([`stylus`]): the cursor lives on the surface under the mouse (a ray cast into
+//! the field the force thread reads, [`pick`]), the left button presses there, and each tool
+//! does what a mouse user expects: touch and paint follow the surface under the mouse; the
+//! point rope grabs the surface and a drag pulls it out by the distance dragged (Shift + drag
+//! pushes it in); the curve rope rides the surface; the probe carves or pulls with its centre
+//! at the wheel's depth below the surface. The wheel sets the selected tool's depth. Forces are
+//! computed and plotted as with a device. With a device (`--server`) the mouse only moves the
+//! camera (the wheel zooms). Keys: 1–6 select tools, Ctrl+S saves the scene, Ctrl+E exports
+//! PLY/OBJ/STL, F12 saves a screenshot, Ctrl+Q quits.
 //!
 //! One job per file, arrows down only (the window imports `live`, never `demo` or `run`; they
 //! open it through [`open`] and a [`Link`]):
@@ -23,16 +29,23 @@
 //! - `app`: the app's state, the per-frame update, status lines and the `--state` JSON;
 //! - `actions`: what the panel's buttons and the keys do;
 //! - `input`: the camera and the mouse as the device;
-//! - `scene`: the scene's texture and the renderer drawing into it;
+//! - [`stylus`], [`pick`]: what the mouse does with each tool, and the ray cast under it;
+//! - `scene`: the scene's texture and the renderer drawing into it, screenshots to PNG;
 //! - [`orbit`], [`panel`], [`plots`]: the camera's math, the control panel, the live plots.
+//!
+//! Inside the window: `app`, `actions` and `input` are one type's (the app's) methods split by
+//! job; `app` → `scene`, [`orbit`], [`panel`], [`plots`]; `input` → [`stylus`] → [`pick`]; all
+//! of them → `crate::live`.
 
 mod actions;
 mod app;
 mod input;
 pub mod orbit;
 pub mod panel;
+pub mod pick;
 pub mod plots;
 mod scene;
+pub mod stylus;
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -58,7 +71,11 @@ pub struct ViewArgs {
     #[arg(value_name = "SCENE.toml")]
     pub scene: Option<PathBuf>,
     /// Connect to this haptics server and feel the scene with its device. Without it the mouse
-    /// drives the cursor (no device, no server).
+    /// is the stylus (no device, no server): the cursor rides the surface under the mouse, the
+    /// left button presses there; touch and paint follow the surface, a rope press grabs it and
+    /// a drag pulls it out by the distance dragged (Shift + drag: in), the probe carves or pulls
+    /// with its centre at the wheel's depth below the surface (the wheel sets the tool's depth;
+    /// Ctrl + wheel zooms).
     #[arg(long, value_name = "ADDR")]
     pub server: Option<SocketAddr>,
     /// The server's certificate (PEM) to pin; required with --server.

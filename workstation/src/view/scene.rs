@@ -1,8 +1,11 @@
 //! The scene's texture: the `render` crate's renderer on eframe's wgpu device drawing into a
 //! texture that egui shows as an image, so one renderer serves the window, the PNG frames and
-//! `render`.
+//! `render`; and the window's pixels saved as a PNG (screenshots).
 
+use std::path::Path;
 use std::sync::Arc;
+
+use anyhow::Context as _;
 
 use eframe::egui;
 use eframe::egui_wgpu;
@@ -99,4 +102,27 @@ impl Gpu {
         self.renderer.queue().submit(Some(encoder.finish()));
         Ok(id)
     }
+}
+
+/// Save an egui screenshot as an opaque PNG (directories made as needed).
+pub(super) fn save_color_image(image: &egui::ColorImage, path: &Path) -> anyhow::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let [w, h] = image.size;
+    let rgba = image
+        .pixels
+        .iter()
+        .flat_map(|c| {
+            let [r, g, b, _] = c.to_array();
+            [r, g, b, 255]
+        })
+        .collect();
+    render::Image {
+        width: w as u32,
+        height: h as u32,
+        rgba,
+    }
+    .save_png(path)?;
+    Ok(())
 }
