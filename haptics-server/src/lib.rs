@@ -1,7 +1,7 @@
 //! `haptics-server`: owns the haptic device and serves it to one workstation at a time.
 //!
 //! - [`device`]: the [`device::Device`] trait and its backends (`fake`, `replay`, `hid`,
-//!   `openhaptics`).
+//!   `openhaptics`, `dhd`).
 //! - [`servo`]: the deterministic servo core ([`servo::ServoCore`], no I/O, no clock), its
 //!   safety stages, and the thin real-time driver thread around it.
 //! - [`telemetry`]: HDR histograms of period and tick cost, counters, session recording.

@@ -5,6 +5,7 @@
 
 mod cli;
 mod common;
+mod dhd;
 mod loopback;
 mod openhaptics;
 mod record;
