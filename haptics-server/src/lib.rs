@@ -13,10 +13,15 @@
 //! - [`config`]: the TOML configuration, validated with field names in every error.
 //! - [`setup`]: config → devices, certificates, servo and network settings.
 //! - [`tls`]: self-signed certificates (`gen-cert`) and the pinned-certificate verifier.
+//! - [`inventory`]: `devices`: what is attached, which backend drives it, why it cannot open.
+//! - [`check`]: `check`: the guided self-test of a new installation (stylus, force axes,
+//!   safety stages, workspace and scene transform).
 
 pub use haptics_client::{client, clock};
+pub mod check;
 pub mod config;
 pub mod device;
+pub mod inventory;
 pub mod loop_bench;
 pub mod server;
 pub mod servo;
