@@ -71,7 +71,7 @@ struct DeviceArgs {
     #[arg(long, value_name = "FILE")]
     replay_file: Option<PathBuf>,
     /// Fake hand path: idle, circle, line, press, or file (with --fake-path-file)
-    /// [default: circle, or device.fake.path; `check`: idle].
+    /// [default: circle, or device.fake.path; `check`: idle instead of circle].
     #[arg(long, value_name = "PATH")]
     fake_path: Option<String>,
     /// Path file for `--fake-path file`: lines `t_s x y z [buttons]` (`workstation demo`
@@ -575,8 +575,9 @@ fn check_command(cli: &Cli) -> ExitCode {
         }
         let args = dev.or(&cli.dev);
         let mut cfg = device_config(&args)?;
-        if args.fake_path.is_none() && args.fake_path_file.is_none() {
-            // A hand that holds still: motion then comes from the test force alone.
+        if args.fake_path.is_none() && cfg.device.fake.path == "circle" {
+            // A hand that holds still (unless a path was asked for): motion then comes from
+            // the test force alone.
             cfg.device.fake.path = "idle".into();
         }
         cfg.validate()?;
