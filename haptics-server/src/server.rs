@@ -119,16 +119,8 @@ impl Server {
     ) -> Result<Server, ServerError> {
         let info = device.info().clone();
         let mut driver_cfg = opts.driver.clone();
-        let p = &mut driver_cfg.params;
-        let device_limit = if info.dof_output == 0 {
-            0.0
-        } else {
-            info.max_force_n
-        };
-        p.device_max_force_n = p.device_max_force_n.min(device_limit);
-        p.safety.max_force_n = p.safety.max_force_n.min(p.device_max_force_n);
-        p.max_stiffness_n_per_m = p.max_stiffness_n_per_m.min(info.max_stiffness_n_per_m);
-        let params = *p;
+        driver_cfg.params = driver_cfg.params.limited_to(&info);
+        let params = driver_cfg.params;
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .thread_name("network")

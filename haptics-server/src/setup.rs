@@ -7,10 +7,11 @@ use std::time::Duration;
 use glam::Vec3;
 
 use crate::config::{DeviceKind, ServerConfig};
+use crate::device::axes::AxisMap;
 use crate::device::fake::{FakeDevice, FakeParams, HandPath};
 use crate::device::hid::{self, Profile, layout::Layout};
 use crate::device::replay::ReplayDevice;
-use crate::device::{Device, DeviceError, openhaptics};
+use crate::device::{Device, DeviceError, dhd, openhaptics};
 use crate::servo::driver::DriverConfig;
 use crate::servo::rt::RtRequest;
 use crate::servo::{SafetyParams, ServoParams};
@@ -124,10 +125,13 @@ pub fn open_device(cfg: &ServerConfig) -> Result<Box<dyn Device>, DeviceError> {
                     period_s: f.period_s,
                 },
             };
+            let axes = AxisMap::parse(&f.axes)
+                .map_err(|e| DeviceError::Open(format!("device.fake.axes: {e}")))?;
             Box::new(FakeDevice::new(FakeParams {
                 path,
                 seed: f.seed,
                 tremor_m: f.tremor_m,
+                axes,
                 ..FakeParams::default()
             }))
         }
@@ -155,6 +159,7 @@ pub fn open_device(cfg: &ServerConfig) -> Result<Box<dyn Device>, DeviceError> {
             &d.openhaptics.library,
             &d.openhaptics.device_name,
         )?),
+        DeviceKind::Dhd => Box::new(dhd::DhdDevice::open(&d.dhd.library, d.dhd.index)?),
     })
 }
 

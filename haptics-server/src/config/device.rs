@@ -16,6 +16,9 @@ pub enum DeviceKind {
     Hid,
     /// A Touch/Phantom through the vendor's OpenHaptics HD library, loaded at run time.
     Openhaptics,
+    /// A Force Dimension omega/delta/sigma (or a Novint Falcon through their SDK) through the
+    /// vendor's DHD library (libdhd.so), loaded at run time.
+    Dhd,
 }
 
 /// `[device]`.
@@ -32,6 +35,8 @@ pub struct DeviceSection {
     pub hid: HidSection,
     /// `[device.openhaptics]`.
     pub openhaptics: OpenHapticsSection,
+    /// `[device.dhd]`.
+    pub dhd: DhdSection,
 }
 
 impl Default for DeviceSection {
@@ -42,6 +47,7 @@ impl Default for DeviceSection {
             replay: ReplaySection::default(),
             hid: HidSection::default(),
             openhaptics: OpenHapticsSection::default(),
+            dhd: DhdSection::default(),
         }
     }
 }
@@ -62,6 +68,9 @@ pub struct FakeSection {
     pub period_s: f32,
     /// Tremor amplitude, m.
     pub tremor_m: f32,
+    /// Where the force really acts, as a signed axis permutation (`"x,y,z"`: correct;
+    /// `"-x,z,y"`: +x comes out as −x, y and z swapped), to try `check --force-test` on.
+    pub axes: String,
 }
 
 impl Default for FakeSection {
@@ -73,6 +82,7 @@ impl Default for FakeSection {
             size_m: 0.02,
             period_s: 4.0,
             tremor_m: 2e-5,
+            axes: "x,y,z".into(),
         }
     }
 }
@@ -128,6 +138,26 @@ impl Default for OpenHapticsSection {
         Self {
             library: "libHD.so".into(),
             device_name: String::new(),
+        }
+    }
+}
+
+/// `[device.dhd]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DhdSection {
+    /// The DHD library to load (a name searched by the dynamic loader, or a path).
+    pub library: String,
+    /// Which attached Force Dimension device, 0-based (`dhdOpenID`); omit: the first
+    /// (`dhdOpen`).
+    pub index: Option<u8>,
+}
+
+impl Default for DhdSection {
+    fn default() -> Self {
+        Self {
+            library: "libdhd.so".into(),
+            index: None,
         }
     }
 }

@@ -14,7 +14,8 @@ use crate::server::TransportKind;
 mod device;
 
 pub use device::{
-    DeviceKind, DeviceSection, FakeSection, HidSection, OpenHapticsSection, ReplaySection,
+    DeviceKind, DeviceSection, DhdSection, FakeSection, HidSection, OpenHapticsSection,
+    ReplaySection,
 };
 
 /// The whole configuration file.
@@ -297,6 +298,12 @@ impl ServerConfig {
         }
         if !(finite_nonneg(d.fake.tremor_m) && d.fake.tremor_m <= 0.01) {
             invalid("device.fake.tremor_m", "must be in 0 … 0.01 m")?;
+        }
+        if let Err(e) = crate::device::axes::AxisMap::parse(&d.fake.axes) {
+            invalid("device.fake.axes", e)?;
+        }
+        if d.dhd.index.is_some_and(|i| i > 15) {
+            invalid("device.dhd.index", "must be 0 … 15")?;
         }
         if d.kind == DeviceKind::Replay && d.replay.file.is_none() {
             invalid(

@@ -7,6 +7,8 @@
 //! `now_ns` the servo loop passes to [`Device::read`], so the same seed and the same sequence of
 //! `now` values give bit-identical trajectories. A seeded tremor (xorshift, no allocation) adds
 //! realism. A [`FakeMonitor`] lets tests observe the force written, lock-free.
+//! [`FakeParams::axes`] simulates a device whose force axes are swapped or inverted (the
+//! force acts along the mapped axes; the monitor still shows the force as written).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -14,6 +16,7 @@ use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use glam::{Quat, Vec3};
 
+use super::axes::AxisMap;
 use super::{Device, DeviceError, DeviceInfo, DeviceSample};
 
 /// Where the simulated hand goes.
@@ -195,6 +198,9 @@ pub struct FakeParams {
     pub tremor_m: f32,
     /// What the device reports about itself.
     pub info: DeviceInfo,
+    /// Where the written force really acts (a simulated wiring or driver error; identity for
+    /// a correct device). Positions are reported truly.
+    pub axes: AxisMap,
 }
 
 impl Default for FakeParams {
@@ -207,6 +213,7 @@ impl Default for FakeParams {
             hand_damping: 5.0,
             tremor_m: 2e-5,
             info: DeviceInfo::phantom_class("fake stylus (simulated hand)"),
+            axes: AxisMap::IDENTITY,
         }
     }
 }
@@ -332,7 +339,7 @@ impl Device for FakeDevice {
             self.force = Vec3::ZERO;
             return Err(DeviceError::Io("non-finite force".into()));
         }
-        self.force = force;
+        self.force = self.params.axes.apply(force);
         for (slot, v) in m.force.iter().zip(force.to_array()) {
             slot.store(v.to_bits(), Ordering::Release);
         }
@@ -400,6 +407,20 @@ mod tests {
         };
         let s = run(&mut FakeDevice::new(p), 2000, Vec3::X);
         assert!((s.position.x - 0.005).abs() < 1e-4, "{}", s.position);
+    }
+
+    #[test]
+    fn mapped_axes_push_the_stylus_the_wrong_way() {
+        // `-x,z,y`: a commanded +x acts along -x, +y along +z.
+        let p = FakeParams {
+            tremor_m: 0.0,
+            axes: AxisMap::parse("-x,z,y").unwrap(),
+            ..FakeParams::default()
+        };
+        let s = run(&mut FakeDevice::new(p.clone()), 2000, Vec3::X);
+        assert!((s.position.x + 0.005).abs() < 1e-4, "{}", s.position);
+        let s = run(&mut FakeDevice::new(p), 2000, Vec3::Y);
+        assert!((s.position.z - 0.005).abs() < 1e-4, "{}", s.position);
     }
 
     #[test]

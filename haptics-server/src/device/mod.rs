@@ -5,10 +5,14 @@
 //! I/O. Units are SI in the device frame (m, m/s, N). Backends: [`fake`] (simulated hand and
 //! stylus, closed loop), [`replay`] (a recorded session), [`hid`] (hidapi: SpaceMouse-class
 //! input, report-layout force devices), [`openhaptics`] (the vendor HD library, loaded at run
-//! time).
+//! time), [`dhd`] (Force Dimension's DHD library, loaded at run time). [`library`] finds and
+//! explains vendor libraries; [`axes`] describes swapped and inverted axes.
 
+pub mod axes;
+pub mod dhd;
 pub mod fake;
 pub mod hid;
+pub mod library;
 pub mod openhaptics;
 pub mod replay;
 

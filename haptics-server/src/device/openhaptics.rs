@@ -81,9 +81,14 @@ fn load(library: &str) -> Result<(libloading::Library, Api), DeviceError> {
     // SAFETY: loading runs the library's initialisers; the HD library (or its stand-in) is a
     // plain C library whose initialisers have no preconditions on us.
     let lib = unsafe { libloading::Library::new(library) }.map_err(|e| {
+        let why = super::library::search(library).explain(
+            &e.to_string(),
+            "device.openhaptics.library",
+            "--openhaptics-library",
+            INSTALL_HINT,
+        );
         DeviceError::Missing(format!(
-            "cannot load the OpenHaptics HD library {library:?} ({e}); install OpenHaptics / the Touch \
-             device drivers, or set device.openhaptics.library to the path of libHD.so"
+            "cannot load the OpenHaptics HD library {library:?}: {why}"
         ))
     })?;
     let missing: Vec<&str> = REQUIRED
@@ -125,9 +130,19 @@ fn load(library: &str) -> Result<(libloading::Library, Api), DeviceError> {
     Ok((lib, api))
 }
 
+/// How `device.openhaptics.library` is installed, for error messages.
+pub const INSTALL_HINT: &str = "install OpenHaptics and the Touch device driver from 3D Systems \
+    (they put libHD.so in /usr/lib or /usr/lib64)";
+
 /// Check `library` loads and exports every function the backend needs.
 pub fn probe(library: &str) -> Result<(), DeviceError> {
     load(library).map(|_| ())
+}
+
+/// The file `library` loads from (`None` when it does not load).
+pub fn loaded_path(library: &str) -> Option<std::path::PathBuf> {
+    let (lib, _) = load(library).ok()?;
+    super::library::loaded_path(&lib, "hdInitDevice")
 }
 
 /// A device driven through the HD library; see the module doc.

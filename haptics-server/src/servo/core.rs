@@ -19,7 +19,7 @@ use protocol::{CursorSample, ForceAck, ForceCommand, ModelKind, ModelRenderer};
 
 use super::passivity::Passivity;
 use super::safety::{Safety, SafetyOutcome, SafetyParams, Stage};
-use crate::device::DeviceSample;
+use crate::device::{DeviceInfo, DeviceSample};
 
 /// Servo parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,6 +49,20 @@ impl ServoParams {
     /// Nominal period, ns.
     pub fn period_ns(&self) -> u64 {
         1_000_000_000 / u64::from(self.rate_hz.max(1))
+    }
+
+    /// These parameters under `info`'s limits: force (zero for an input-only device) and
+    /// stiffness; the lower of the server's and the device's wins.
+    pub fn limited_to(mut self, info: &DeviceInfo) -> Self {
+        let device_limit = if info.dof_output == 0 {
+            0.0
+        } else {
+            info.max_force_n
+        };
+        self.device_max_force_n = self.device_max_force_n.min(device_limit);
+        self.safety.max_force_n = self.safety.max_force_n.min(self.device_max_force_n);
+        self.max_stiffness_n_per_m = self.max_stiffness_n_per_m.min(info.max_stiffness_n_per_m);
+        self
     }
 }
 

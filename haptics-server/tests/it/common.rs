@@ -1,5 +1,7 @@
-//! Helpers: an in-process server on a fake device, a connected client, polling waits.
+//! Helpers: an in-process server on a fake device, a connected client, polling waits, the C
+//! stand-ins of vendor libraries.
 
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -102,4 +104,33 @@ pub async fn stream_until(
             "timed out waiting for {what}; last {c:?}"
         );
     }
+}
+
+/// Compile the stand-in `tests/stand-ins/{source}` into `dir/name` as a shared library with
+/// the `cc` crate's compiler detection; `defines` adds `-D` flags.
+pub fn build_standin(source: &str, dir: &Path, name: &str, defines: &[&str]) -> PathBuf {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/stand-ins")
+        .join(source);
+    let out = dir.join(name);
+    let target = format!("{}-unknown-linux-gnu", std::env::consts::ARCH);
+    let compiler = cc::Build::new()
+        .cargo_metadata(false)
+        .target(&target)
+        .host(&target)
+        .opt_level(1)
+        .out_dir(dir)
+        .try_get_compiler()
+        .expect("a C compiler");
+    let mut cmd = compiler.to_command();
+    cmd.args(["-shared", "-fPIC", "-std=c11", "-D_GNU_SOURCE", "-o"])
+        .arg(&out)
+        .arg(&src)
+        .args(["-lpthread", "-lm"]);
+    for d in defines {
+        cmd.arg(format!("-D{d}"));
+    }
+    let status = cmd.status().expect("run the C compiler");
+    assert!(status.success(), "building the stand-in failed: {cmd:?}");
+    out
 }

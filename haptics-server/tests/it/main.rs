@@ -3,8 +3,10 @@
 //! Timing is never asserted: every wait is "until the condition holds, or a generous timeout",
 //! so a loaded 2-core CI machine makes the tests slower, not flaky.
 
+mod check;
 mod cli;
 mod common;
+mod dhd;
 mod loopback;
 mod openhaptics;
 mod record;

@@ -8,32 +8,11 @@ use glam::Vec3;
 use haptics_server::device::openhaptics::{OpenHapticsDevice, probe};
 use haptics_server::server::{Server, ServerOptions, TransportKind};
 
-use crate::common::{config, constant, stream_until};
+use crate::common::{build_standin, config, constant, stream_until};
 
-/// Compile the stand-in into `dir`; `defines` adds `-D` flags.
-fn build(dir: &Path, name: &str, defines: &[&str]) -> PathBuf {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/stand-ins/hd_standin.c");
-    let out = dir.join(name);
-    let target = format!("{}-unknown-linux-gnu", std::env::consts::ARCH);
-    let compiler = cc::Build::new()
-        .cargo_metadata(false)
-        .target(&target)
-        .host(&target)
-        .opt_level(1)
-        .out_dir(dir)
-        .try_get_compiler()
-        .expect("a C compiler");
-    let mut cmd = compiler.to_command();
-    cmd.args(["-shared", "-fPIC", "-std=c11", "-D_GNU_SOURCE", "-o"])
-        .arg(&out)
-        .arg(&src)
-        .arg("-lpthread");
-    for d in defines {
-        cmd.arg(format!("-D{d}"));
-    }
-    let status = cmd.status().expect("run the C compiler");
-    assert!(status.success(), "building the stand-in failed: {cmd:?}");
-    out
+/// Compile the HD stand-in into `dir`; `defines` adds `-D` flags.
+pub fn build(dir: &Path, name: &str, defines: &[&str]) -> PathBuf {
+    build_standin("hd_standin.c", dir, name, defines)
 }
 
 #[test]
