@@ -75,7 +75,7 @@ pub const KNOWN: [KnownVendor; 5] = [
         name: "Force Dimension (omega, delta, sigma, lambda)",
         backend: "dhd",
         how: "--device dhd (libdhd.so opens it through /dev/bus/usb)",
-        in_rules: false,
+        in_rules: true,
     },
     KnownVendor {
         vendor_id: 0x0403,
@@ -83,7 +83,7 @@ pub const KNOWN: [KnownVendor; 5] = [
         name: "Novint Falcon",
         backend: "dhd",
         how: "--device dhd (Force Dimension's SDK drives the Falcon)",
-        in_rules: false,
+        in_rules: true,
     },
 ];
 

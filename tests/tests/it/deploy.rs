@@ -329,6 +329,7 @@ fn the_udev_rules_are_well_formed_and_cover_the_known_vendors() {
         assert!(parse_rule(bad).is_err(), "accepted: {bad}");
     }
     let mut hidraw_vendors = Vec::new();
+    let mut usb_ids: Vec<(u16, Option<u16>)> = Vec::new();
     let mut rules = 0;
     for (n, line) in src.lines().enumerate() {
         let line = line.trim();
@@ -353,6 +354,34 @@ fn the_udev_rules_are_well_formed_and_cover_the_known_vendors() {
                 .unwrap_or_else(|| panic!("line {}: a hidraw rule without a vendor", n + 1));
             hidraw_vendors.push(u16::from_str_radix(&vendor.value, 16).expect("hex vendor id"));
         }
+        if get("SUBSYSTEM", "==") == Some("usb") {
+            let attr = |a: &str| {
+                pairs
+                    .iter()
+                    .find(|p| p.key == "ATTRS" && p.attr.as_deref() == Some(a))
+                    .map(|p| u16::from_str_radix(&p.value, 16).expect("hex id"))
+            };
+            let vendor = attr("idVendor")
+                .unwrap_or_else(|| panic!("line {}: a usb rule without a vendor", n + 1));
+            usb_ids.push((vendor, attr("idProduct")));
+        }
+    }
+    // Every vendor `haptics-server devices` says the rules cover is in them (USB-level vendors
+    // by a usb rule, exactly as narrow as the inventory's product list).
+    for k in haptics_server::inventory::KNOWN
+        .iter()
+        .filter(|k| k.in_rules)
+    {
+        let covered = hidraw_vendors.contains(&k.vendor_id)
+            || usb_ids.iter().any(|&(v, p)| {
+                v == k.vendor_id
+                    && match (k.products, p) {
+                        (None, None) => true,
+                        (Some(list), Some(p)) => list.contains(&p),
+                        _ => false,
+                    }
+            });
+        assert!(covered, "no rule for {} ({:04x})", k.name, k.vendor_id);
     }
     for v in haptics_server::device::hid::SPACEMOUSE_VENDORS {
         assert!(
