@@ -87,6 +87,9 @@ pub struct Summary {
     /// Baseline in the same run: a bare UDP ping-pong of 64-byte datagrams between two loopback
     /// sockets (µs), taken right after the session under the same load.
     pub baseline_udp_rtt_us: PercentilesUs,
+    /// The age of the command each servo tick applied (also in `stats`): the fraction of ticks
+    /// that applied the answer to the previous tick's cursor, one or more ticks later, or none.
+    pub applied_age_ticks: protocol::AppliedAgeFractions,
     /// Points in the final model.
     pub points: usize,
     /// Triangles of its meshed zero set.
@@ -261,6 +264,7 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
         sim_hz: stats.sim_hz,
         rtt_us: stats.rtt_us,
         baseline_udp_rtt_us,
+        applied_age_ticks: stats.applied_age_ticks,
         points: saved.points,
         triangles: saved.triangles,
         phases,
@@ -274,7 +278,7 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
         serde_json::to_string_pretty(&summary)?,
     )?;
     say(format!(
-        "demo: done in {:.1} s. force loop {:.0} Hz (period p50 {:.0} µs, p99 {:.0} µs), simulation {:.0} Hz, cursor→force round trip p50 {:.0} µs p99 {:.0} µs (bare UDP ping-pong p50 {:.0} µs), {} frames; wrote {}",
+        "demo: done in {:.1} s. force loop {:.0} Hz (period p50 {:.0} µs, p99 {:.0} µs), simulation {:.0} Hz, cursor→force round trip p50 {:.0} µs p99 {:.0} µs (bare UDP ping-pong p50 {:.0} µs), {:.2} % of servo ticks applied the answer to the previous tick's cursor, {} frames; wrote {}",
         summary.seconds,
         summary.force_loop_hz,
         summary.force_loop_period_us.p50,
@@ -283,6 +287,7 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
         summary.rtt_us.p50,
         summary.rtt_us.p99,
         summary.baseline_udp_rtt_us.p50,
+        summary.applied_age_ticks.next_tick * 100.0,
         summary.frames,
         args.out.display()
     ));

@@ -416,6 +416,9 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
             match s.send_force(&cmd) {
                 Ok(()) => {
                     shared.net.forces_sent.fetch_add(1, Ordering::Relaxed);
+                    if let Some((sequence, _)) = s.last_sent() {
+                        shared.net.applied.sent(sequence, msg.cursor.servo_tick);
+                    }
                 }
                 Err(ClientError::Closed) => sender = None,
                 Err(e) => tracing::debug!("force command not sent: {e}"),

@@ -390,6 +390,7 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
         tokio::select! {
             r = tokio::time::timeout(CURSOR_SILENCE, rx.recv_cursor()) => {
                 let (packet, cursor) = r.map_err(|_| ClientError::Timeout("cursor samples (the server went silent)"))??;
+                shared.net.applied.on_cursor(&cursor);
                 push_cursor(ports, &shared.net, CursorMsg::new(&packet, cursor, Instant::now()));
             }
             msg = control.recv() => match msg? {

@@ -267,6 +267,71 @@ impl LoopStats {
     }
 }
 
+/// Which cursor each force command answered, so the cursors' acknowledgements tell the age of
+/// the command every servo tick applied ([`protocol::AppliedAge`]). The force thread writes a
+/// slot per command it sends, the network thread reads it per cursor: lock-free, allocated
+/// once; a slot is overwritten [`AppliedAgeTracker::SLOTS`] commands later (1 s at 1 kHz), and
+/// an acknowledgement of an overwritten command counts as "no command" rather than a wrong age.
+#[derive(Debug)]
+pub struct AppliedAgeTracker {
+    /// Per command sequence modulo `SLOTS`: `sequence << 32 | answered cursor's servo tick`.
+    answered: Box<[AtomicU64]>,
+    /// Ticks applying the answer to the previous tick's cursor, 1 late, ≥ 2 late, none yet.
+    counts: [AtomicU64; 4],
+}
+
+impl Default for AppliedAgeTracker {
+    fn default() -> Self {
+        Self {
+            answered: (0..Self::SLOTS).map(|_| AtomicU64::new(u64::MAX)).collect(),
+            counts: Default::default(),
+        }
+    }
+}
+
+impl AppliedAgeTracker {
+    /// Commands remembered.
+    pub const SLOTS: usize = 1024;
+
+    /// The force thread sent command `sequence` answering the cursor of servo tick
+    /// `answers_tick`.
+    pub fn sent(&self, sequence: u32, answers_tick: u32) {
+        self.answered[sequence as usize % Self::SLOTS].store(
+            u64::from(sequence) << 32 | u64::from(answers_tick),
+            Ordering::Relaxed,
+        );
+    }
+
+    /// A cursor arrived: count its tick by the age of the command it says was applied.
+    pub fn on_cursor(&self, cursor: &CursorSample) {
+        let answers_tick = cursor.ack.and_then(|ack| {
+            let v = self.answered[ack.sequence as usize % Self::SLOTS].load(Ordering::Relaxed);
+            (v >> 32 == u64::from(ack.sequence)).then_some(v as u32)
+        });
+        let mut one = protocol::AppliedAge::default();
+        one.record(cursor.servo_tick, answers_tick);
+        for (slot, n) in
+            self.counts
+                .iter()
+                .zip([one.next, one.two, one.three_or_more, one.no_command])
+        {
+            slot.fetch_add(n, Ordering::Relaxed);
+        }
+    }
+
+    /// The counts so far.
+    pub fn get(&self) -> protocol::AppliedAge {
+        let [next, two, three_or_more, no_command] =
+            self.counts.each_ref().map(|c| c.load(Ordering::Relaxed));
+        protocol::AppliedAge {
+            next,
+            two,
+            three_or_more,
+            no_command,
+        }
+    }
+}
+
 /// Network statistics.
 #[derive(Debug, Default)]
 pub struct NetStats {
@@ -307,6 +372,8 @@ pub struct NetStats {
     /// version mismatch, refused, timed out), for the window's status line; cleared when a
     /// session comes up. Written by the network thread at its retry rate, read by anyone.
     pub connect_error: ArcSwapOption<String>,
+    /// The age of the command each servo tick applied.
+    pub applied: AppliedAgeTracker,
 }
 
 /// Everything shared between the threads of one workstation.
