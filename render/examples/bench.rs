@@ -81,12 +81,7 @@ fn sphere_splats(n: usize) -> Vec<Splat> {
             } else {
                 [clay[0], clay[1], clay[2], 255]
             };
-            Splat {
-                position: normal.map(|c| c * RADIUS),
-                normal,
-                radius: 0.8 * spacing,
-                color,
-            }
+            Splat::disk(normal.map(|c| c * RADIUS), normal, 0.8 * spacing, color)
         })
         .collect()
 }

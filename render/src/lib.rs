@@ -43,16 +43,25 @@
 //! ~80–100 ms at 100k (docs/BENCHMARKS.md, "Headless renderer").
 
 mod camera;
+mod ewa;
 mod geometry;
+mod headless;
 mod image;
 mod pipelines;
+mod raster;
 mod renderer;
 mod scene;
+mod shape;
+mod software;
 
 pub use camera::Camera;
+pub use ewa::{EPS_FRACTION, EPS_PX, GAUSS_K, MIN_WEIGHT, PREFILTER_PX};
+pub use headless::{BACKEND_ENV, Backend, BackendChoice, HeadlessRenderer};
 pub use image::Image;
 pub use renderer::Renderer;
 pub use scene::{Ellipsoid, Lighting, Overlay, Splat, Style, linear_to_srgb, srgb_to_linear};
+pub use shape::{MAX_SHAPE_NEIGHBOURS, MIN_SPLAT_ASPECT, SPLAT_OVERLAP, SplatShape, splat_shape};
+pub use software::SoftwareRenderer;
 
 /// Errors of the renderer; each variant names what failed.
 #[derive(Debug, thiserror::Error)]
@@ -90,7 +99,7 @@ pub enum RenderError {
     TooManySplats {
         /// Splats passed.
         count: usize,
-        /// Most splats one frame can draw (storage binding size / 32 bytes).
+        /// Most splats one frame can draw (storage binding size / 48 bytes).
         max: usize,
     },
     /// The camera cannot produce a projection.
@@ -110,6 +119,9 @@ pub enum RenderError {
     /// Mapping the readback buffer failed.
     #[error("reading the image back failed: {0}")]
     Readback(#[from] wgpu::BufferAsyncError),
+    /// A backend name other than `auto`, `gpu` or `software`.
+    #[error("unknown renderer backend {0:?} (expected auto, gpu or software)")]
+    UnknownBackend(String),
     /// Writing a PNG file failed.
     #[error("writing PNG {path}: {source}")]
     Png {
