@@ -494,8 +494,8 @@ impl Renderer {
             self.accum = Some(self.make_accum(size));
         }
         let accum = self.accum.as_ref().expect("made above");
-        // Splat vertices: three per splat, pulled from the storage buffer.
-        let vertices = 0..3 * splats.len() as u32;
+        // Splat vertices: six per splat (two triangles), pulled from the storage buffer.
+        let vertices = 0..6 * splats.len() as u32;
 
         // Pass 1, visibility: depth only.
         {

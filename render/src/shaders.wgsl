@@ -199,11 +199,11 @@ struct EwaOut {
     @location(5) @interpolate(flat) normal: vec3<f32>,
 };
 
-// Splat vi / 3, corner vi % 3 of one screen-space triangle enclosing its pixel box (legs twice
-// the box's sides): on the software rasteriser, cost goes with triangles more than fragments.
+// Splat vi / 6, corner vi % 6 of the two triangles covering its pixel box exactly: half the
+// fragments of one triangle enclosing the box, which costs more than the extra triangle.
 @vertex
 fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
-    let e = ewa_setup(vi / 3u);
+    let e = ewa_setup(vi / 6u);
     var out: EwaOut;
     out.center_wc = e.center_wc;
     out.ainv = e.ainv;
@@ -217,13 +217,10 @@ fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
     }
     let lo = clamp(e.bbox.xy, vec2<f32>(-1.0), frame.viewport.xy + 1.0);
     let hi = clamp(e.bbox.zw, vec2<f32>(-1.0), frame.viewport.xy + 1.0);
-    let c = vi % 3u;
-    var px = lo;
-    if c == 1u {
-        px.x = lo.x + 2.0 * (hi.x - lo.x);
-    } else if c == 2u {
-        px.y = lo.y + 2.0 * (hi.y - lo.y);
-    }
+    // Corners 0 1 2, 2 1 3 of the box (bit 0: x high, bit 1: y high).
+    var quad = array<u32, 6>(0u, 1u, 2u, 2u, 1u, 3u);
+    let c = quad[vi % 6u];
+    let px = select(lo, hi, vec2<bool>((c & 1u) != 0u, (c & 2u) != 0u));
     out.clip = vec4<f32>(px.x * 2.0 * frame.viewport.z - 1.0, 1.0 - px.y * 2.0 * frame.viewport.w, 0.5, 1.0);
     return out;
 }
