@@ -1,18 +1,22 @@
-//! Frames per second of the headless renderer, readback included, and the showcase PNG.
+//! Frames per second of the headless renderers (GPU and software), readback included, and the
+//! showcase PNG.
 //!
 //! ```sh
-//! cargo run --release -p render --example bench -- --points 10000,100000 --frames 30
+//! cargo run --release -p render --example bench -- --points 10000,100000,1000000 --frames 10
+//! cargo run --release -p render --example bench -- --backend software --cull
 //! cargo run --release -p render --example bench -- --png docs/plots/render_sphere.png --frames 0
 //! ```
 //!
 //! Each size renders a sphere of splats with every overlay (probe, cursor, box, force arrow),
-//! 3 warm-up frames, then `--frames` timed `render_into` calls (draw + submit + wait + readback
-//! into a reused image); prints the median frame time, its p10–p90 spread and frames/s, with
-//! both sides of the surface drawn (the default) and with back-facing splats culled.
+//! 3 warm-up frames, then `--frames` timed `render_into` calls (GPU: draw + submit + wait +
+//! readback into a reused image; software: the whole frame on the CPU); prints the median
+//! frame time, its p10–p90 spread and frames/s, on each `--backend` (`gpu`, `software` or
+//! `both`), with both sides of the surface drawn (the default) and, with `--cull`, also with
+//! back-facing splats culled.
 
 use std::{f32::consts::PI, time::Instant};
 
-use render::{Camera, Ellipsoid, Image, Overlay, Renderer, Splat, Style};
+use render::{BackendChoice, Camera, Ellipsoid, HeadlessRenderer, Image, Overlay, Splat, Style};
 
 struct Args {
     points: Vec<usize>,
@@ -20,15 +24,19 @@ struct Args {
     width: u32,
     height: u32,
     png: Option<String>,
+    backends: Vec<BackendChoice>,
+    cull: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
     let mut args = Args {
-        points: vec![10_000, 100_000],
-        frames: 30,
+        points: vec![10_000, 100_000, 1_000_000],
+        frames: 10,
         width: 1280,
         height: 720,
         png: None,
+        backends: vec![BackendChoice::Gpu, BackendChoice::Software],
+        cull: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -45,10 +53,17 @@ fn parse_args() -> Result<Args, String> {
             "--width" => args.width = num(value()?)? as u32,
             "--height" => args.height = num(value()?)? as u32,
             "--png" => args.png = Some(value()?),
+            "--cull" => args.cull = true,
+            "--backend" => {
+                args.backends = match value()?.as_str() {
+                    "both" => vec![BackendChoice::Gpu, BackendChoice::Software],
+                    other => vec![other.parse().map_err(|e| format!("--backend: {e}"))?],
+                }
+            }
             "--help" | "-h" => {
                 return Err(
                     "usage: bench [--points N,N..] [--frames N] [--width W] [--height H] \
-                            [--png PATH]"
+                            [--png PATH] [--backend gpu|software|both] [--cull]"
                         .into(),
                 );
             }
@@ -81,12 +96,7 @@ fn sphere_splats(n: usize) -> Vec<Splat> {
             } else {
                 [clay[0], clay[1], clay[2], 255]
             };
-            Splat {
-                position: normal.map(|c| c * RADIUS),
-                normal,
-                radius: 0.8 * spacing,
-                color,
-            }
+            Splat::disk(normal.map(|c| c * RADIUS), normal, 0.8 * spacing, color)
         })
         .collect()
 }
@@ -122,48 +132,51 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 }
 
 fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
-    let mut renderer = Renderer::headless(args.width, args.height)?;
-    println!("adapter: {}", renderer.adapter_info());
-    println!("target: {}x{}, readback included", args.width, args.height);
     let (overlay, camera) = scene();
-    if let Some(path) = &args.png {
-        let image = renderer.render(&sphere_splats(10_000), &overlay, &camera)?;
-        image.save_png(path)?;
-        println!("wrote {path} (10,000 splats)");
-    }
-    if args.frames == 0 {
-        return Ok(());
-    }
-    println!(
-        "{:>9}  {:>10}  {:>10}  {:>17}  {:>8}",
-        "points", "splats", "median ms", "p10-p90 ms", "frames/s"
-    );
-    let mut image = Image::default();
-    for &n in &args.points {
-        let splats = sphere_splats(n);
-        for cull in [false, true] {
-            renderer.set_style(Style {
-                cull_back_facing: cull,
-                ..Style::default()
-            });
-            for _ in 0..3 {
-                renderer.render_into(&splats, &overlay, &camera, &mut image)?;
+    println!("target: {}x{}, readback included", args.width, args.height);
+    for &choice in &args.backends {
+        let mut renderer = HeadlessRenderer::new(args.width, args.height, choice)?;
+        println!("backend: {}", renderer.describe());
+        if let Some(path) = &args.png {
+            let image = renderer.render(&sphere_splats(10_000), &overlay, &camera)?;
+            image.save_png(path)?;
+            println!("wrote {path} (10,000 splats)");
+        }
+        if args.frames == 0 {
+            continue;
+        }
+        println!(
+            "{:>9}  {:>10}  {:>10}  {:>17}  {:>8}",
+            "points", "splats", "median ms", "p10-p90 ms", "frames/s"
+        );
+        let mut image = Image::default();
+        for &n in &args.points {
+            let splats = sphere_splats(n);
+            let culls: &[bool] = if args.cull { &[false, true] } else { &[false] };
+            for &cull in culls {
+                renderer.set_style(Style {
+                    cull_back_facing: cull,
+                    ..Style::default()
+                });
+                for _ in 0..3 {
+                    renderer.render_into(&splats, &overlay, &camera, &mut image)?;
+                }
+                let mut times = Vec::with_capacity(args.frames);
+                for _ in 0..args.frames {
+                    let t = Instant::now();
+                    renderer.render_into(&splats, &overlay, &camera, &mut image)?;
+                    times.push(t.elapsed().as_secs_f64() * 1e3);
+                }
+                times.sort_by(f64::total_cmp);
+                let median = percentile(&times, 0.5);
+                println!(
+                    "{n:>9}  {:>10}  {median:>10.2}  {:>8.2}-{:<8.2}  {:>8.1}",
+                    if cull { "front only" } else { "both sides" },
+                    percentile(&times, 0.1),
+                    percentile(&times, 0.9),
+                    1e3 / median
+                );
             }
-            let mut times = Vec::with_capacity(args.frames);
-            for _ in 0..args.frames {
-                let t = Instant::now();
-                renderer.render_into(&splats, &overlay, &camera, &mut image)?;
-                times.push(t.elapsed().as_secs_f64() * 1e3);
-            }
-            times.sort_by(f64::total_cmp);
-            let median = percentile(&times, 0.5);
-            println!(
-                "{n:>9}  {:>10}  {median:>10.2}  {:>8.2}-{:<8.2}  {:>8.1}",
-                if cull { "front only" } else { "both sides" },
-                percentile(&times, 0.1),
-                percentile(&times, 0.9),
-                1e3 / median
-            );
         }
     }
     Ok(())

@@ -1,58 +1,81 @@
-//! `render`: a wgpu renderer of the sculpting scene (DESIGN §6, the rendering thread), headless
-//! to RGBA/PNG today and into a window's surface later with the same [`Renderer`].
+//! `render`: the sculpting scene as high-quality surface splats (DESIGN §6b; Zwicker et al.
+//! 2001, Botsch, Hornung, Zwicker & Kobbelt 2005) with its overlays, on the GPU (wgpu,
+//! [`Renderer`]) or on the CPU ([`SoftwareRenderer`], the reference and the fallback), headless
+//! into RGBA/PNG ([`HeadlessRenderer`] picks the backend) and into a window's surface with the
+//! same [`Renderer`].
 //!
-//! What it draws, in this order, in one render pass with a depth buffer:
-//! 1. the points as lit, oriented surfel splats ([`Splat`]): a disk per point centred at its
-//!    position, in the tangent plane of its unit normal, of the radius the caller gives (from
-//!    local spacing), in its sRGB colour; one triangle per splat enclosing its disk, expanded
-//!    in the vertex shader in the tangent plane from the splat array (bound as a storage
-//!    buffer: no instancing, which Mesa's software rasteriser runs one instance at a time),
-//!    fragments outside the unit disk discarded, depth-tested and written (no EWA blending: the
-//!    nearest disk wins); optionally back-facing splats culled ([`Style::cull_back_facing`]);
-//! 2. the opaque overlays ([`Overlay`]): the haptic cursor and the contact point (small spheres
-//!    of constant screen size) and the head of the force arrow;
-//! 3. lines of a given width in pixels, depth-tested: the sculpting region's 12 box edges and the
-//!    force arrow's shaft;
-//! 4. the probe ellipsoid, translucent (alpha-blended over everything above, depth-tested, no
-//!    depth write), front faces only.
+//! A splat ([`Splat`]) is an ellipse in the tangent plane of its normal: semi-axes `radius`
+//! along its tangent `axis` and `minor_radius` across (a disk when `axis` is zero), sized by
+//! the caller from the local spacing ([`splat_shape`] does it from a point's neighbours). What
+//! a frame draws, in this order:
+//! 1. **visibility**: every splat writes, per pixel, the depth where the pixel's ray meets its
+//!    plane (exact ray casting through the ellipse's homography), pushed back in view depth by
+//!    ε = [`EPS_FRACTION`]·radius + [`EPS_PX`] pixel footprints, nearest wins;
+//! 2. **attributes**: every splat fragment within ε of that front (depth test, no write) adds
+//!    w·albedo (linear), w and w·normal (turned to face the eye) into float sums (GPU:
+//!    two `Rgba16Float` targets, additive blending), with w the Gaussian of the fragment's
+//!    elliptical distance d: `(exp(-K d²) − e^-K) / (1 − e^-K)`, K = [`GAUSS_K`] (σ = radius/2,
+//!    truncated and zero at the ellipse's edge);
+//! 3. **normalisation**: per pixel, albedo = Σw·albedo / Σw and the normal of Σw·normal are
+//!    shaded with the headlight ([`Lighting`]: Lambert with ambient and a white specular,
+//!    two-sided, in linear colour); pixels with Σw < [`MIN_WEIGHT`] keep the background;
+//! 4. the **overlays** ([`Overlay`]), depth-tested against the splats' (pushed-back) depth: the
+//!    cursor and contact point (spheres of constant screen size), the force arrow's head, the
+//!    region box's 12 edges and the arrow's shaft as lines of a width in pixels, and the
+//!    translucent probe ellipsoid (alpha-blended, front faces).
 //!
-//! Lighting ([`Lighting`]) is a headlight (a point light at the eye): Lambert with ambient and a
-//! little white specular, two-sided (`|n·l|`), computed in linear colour; targets are sRGB.
+//! Screen-space pre-filter: a pixel within [`PREFILTER_PX`] of a splat's projected centre takes
+//! the smaller of its object-space and screen-space elliptical distances (Botsch et al.'s
+//! approximation of the EWA filter): a splat never covers less than that disk, so far or tiny
+//! splats neither vanish between pixel centres nor alias. Targets are sRGB; the hardware (or
+//! [`linear_to_srgb`]) encodes. The GPU and the software renderer share this math (`ewa.rs` is
+//! mirrored line by line in `shaders.wgsl`) and agree to ~60 dB PSNR.
 //!
 //! Contract:
-//! - No global state. A [`Renderer`] owns its wgpu device, queue, pipelines and buffers; several
-//!   can coexist (each test makes its own).
-//! - Allocation: the splat buffer grows (to the next power of two) when a frame has more splats
-//!   than any frame before, and never shrinks; overlay buffers have a fixed size. Once sized, a
-//!   frame creates no buffer or texture; the most splats per frame is the device's storage
-//!   binding size / 32 bytes ([`RenderError::TooManySplats`]; 4 M at wgpu's default limits).
-//!   [`Renderer::render`] allocates the [`Image`] it returns ([`Renderer::render_into`] reuses
-//!   one); wgpu itself allocates a little per command encoder.
+//! - No global state. A [`Renderer`] owns its wgpu device, queue, pipelines and buffers; a
+//!   [`SoftwareRenderer`] its buffers; several can coexist.
+//! - Allocation: the GPU's splat buffer grows (to the next power of two) when a frame has more
+//!   splats than any before and never shrinks; its accumulation targets are made when the frame
+//!   size changes; overlay buffers have a fixed size. The software renderer's per-pixel,
+//!   per-splat and binning buffers grow likewise and are reused. Once sized, a frame allocates
+//!   nothing of ours (wgpu allocates a little per command encoder, rayon per job). The most
+//!   splats per GPU frame is the storage binding size / 48 bytes
+//!   ([`RenderError::TooManySplats`]). `render` allocates the [`Image`] it returns
+//!   (`render_into` reuses one).
 //! - [`Renderer::draw`] records into a caller's encoder and colour/depth views, so a window can
 //!   reuse the renderer unchanged: make the device with the surface's adapter, call
 //!   [`Renderer::with_device`] with the surface's (sRGB) format, create a depth view with
 //!   [`Renderer::create_depth_view`], and `draw` into each frame's surface texture view.
-//! - Inputs are validated at the boundary: a non-finite splat or overlay value, or an invalid
-//!   camera, is an error that names it, and nothing is drawn.
+//! - Inputs are validated at the boundary: a non-finite splat or overlay value, a negative
+//!   radius, or an invalid camera, is an error that names it, and nothing is drawn.
 //!
-//! Backend: wgpu 30 with Vulkan only (features `std`, `vulkan`, `wgsl`). Without a GPU it runs
+//! Backends: wgpu 30 with Vulkan only (features `std`, `vulkan`, `wgsl`). Without a GPU it runs
 //! on Mesa's software Vulkan driver, lavapipe (Debian `mesa-vulkan-drivers` + `libvulkan1`,
-//! which CI installs); GL was not needed and is not built. In a session without a display,
-//! Mesa may print `XDG_RUNTIME_DIR is invalid or not set` on stderr when the instance is made:
-//! harmless. On lavapipe a 1280×720 frame with readback takes ~22 ms at 10k splats and
-//! ~80–100 ms at 100k (docs/BENCHMARKS.md, "Headless renderer").
+//! which CI installs). Without any Vulkan driver, [`HeadlessRenderer`] in
+//! [`BackendChoice::Auto`] falls back to [`SoftwareRenderer`] and says why. In a session
+//! without a display, Mesa may print `XDG_RUNTIME_DIR is invalid or not set` on stderr when the
+//! instance is made: harmless. Frame times: docs/BENCHMARKS.md, "Headless renderer".
 
 mod camera;
+mod ewa;
 mod geometry;
+mod headless;
 mod image;
 mod pipelines;
+mod raster;
 mod renderer;
 mod scene;
+mod shape;
+mod software;
 
 pub use camera::Camera;
+pub use ewa::{EPS_FRACTION, EPS_PX, GAUSS_K, MIN_WEIGHT, PREFILTER_PX};
+pub use headless::{BACKEND_ENV, Backend, BackendChoice, HeadlessRenderer};
 pub use image::Image;
 pub use renderer::Renderer;
 pub use scene::{Ellipsoid, Lighting, Overlay, Splat, Style, linear_to_srgb, srgb_to_linear};
+pub use shape::{MAX_SHAPE_NEIGHBOURS, MIN_SPLAT_ASPECT, SPLAT_OVERLAP, SplatShape, splat_shape};
+pub use software::SoftwareRenderer;
 
 /// Errors of the renderer; each variant names what failed.
 #[derive(Debug, thiserror::Error)]
@@ -90,7 +113,7 @@ pub enum RenderError {
     TooManySplats {
         /// Splats passed.
         count: usize,
-        /// Most splats one frame can draw (storage binding size / 32 bytes).
+        /// Most splats one frame can draw (storage binding size / 48 bytes).
         max: usize,
     },
     /// The camera cannot produce a projection.
@@ -110,6 +133,9 @@ pub enum RenderError {
     /// Mapping the readback buffer failed.
     #[error("reading the image back failed: {0}")]
     Readback(#[from] wgpu::BufferAsyncError),
+    /// A backend name other than `auto`, `gpu` or `software`.
+    #[error("unknown renderer backend {0:?} (expected auto, gpu or software)")]
+    UnknownBackend(String),
     /// Writing a PNG file failed.
     #[error("writing PNG {path}: {source}")]
     Png {

@@ -5,11 +5,18 @@ use crate::{
     geometry::{LineInstance, MeshInstance, MeshVertex},
 };
 
-/// One pipeline per kind of primitive.
+/// Format of the attribute pass's two sums (blendable without an extra feature).
+pub(crate) const ACCUM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// One pipeline per pass and kind of primitive.
 #[derive(Debug)]
 pub(crate) struct Pipelines {
-    /// Surfel splats, pulled from the storage buffer (no vertex buffers).
-    pub splat: wgpu::RenderPipeline,
+    /// Splatting pass 1: pushed-back depth only.
+    pub ewa_visibility: wgpu::RenderPipeline,
+    /// Splatting pass 2: additive Σw·albedo, Σw, Σw·normal, depth-tested, no depth write.
+    pub ewa_attribute: wgpu::RenderPipeline,
+    /// Splatting pass 3: full-screen normalisation and shading into the colour target.
+    pub ewa_normalise: wgpu::RenderPipeline,
     /// Cursor and arrow head: lit, depth-written.
     pub mesh_opaque: wgpu::RenderPipeline,
     /// The probe: lit, alpha-blended, depth-tested without depth writes, back faces culled.
@@ -52,10 +59,29 @@ pub(crate) fn bind_group_layout(device: &wgpu::Device, frame_size: u64) -> wgpu:
     })
 }
 
+/// Group 1 of the normalisation pass: the two accumulation textures.
+pub(crate) fn accum_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let texture = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("accumulation"),
+        entries: &[texture(0), texture(1)],
+    })
+}
+
 /// Builds every pipeline for colour targets of `color_format`.
 pub(crate) fn make_pipelines(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
+    accum: &wgpu::BindGroupLayout,
     color_format: wgpu::TextureFormat,
 ) -> Pipelines {
     let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -65,6 +91,11 @@ pub(crate) fn make_pipelines(
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("render"),
         bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    let normalise_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("normalise"),
+        bind_group_layouts: &[Some(layout), Some(accum)],
         immediate_size: 0,
     });
     let mesh_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
@@ -104,12 +135,14 @@ pub(crate) fn make_pipelines(
         topology: wgpu::PrimitiveTopology,
         cull: Option<wgpu::Face>,
         depth_write: bool,
-        blend: Option<wgpu::BlendState>,
+        depth_compare: wgpu::CompareFunction,
+        targets: &'a [Option<wgpu::ColorTargetState>],
+        layout: &'a wgpu::PipelineLayout,
     }
     let make = |s: Spec<'_>| {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(s.label),
-            layout: Some(&pipeline_layout),
+            layout: Some(s.layout),
             vertex: wgpu::VertexState {
                 module: &shader,
                 entry_point: Some(s.vs),
@@ -124,7 +157,7 @@ pub(crate) fn make_pipelines(
             depth_stencil: Some(wgpu::DepthStencilState {
                 format: Renderer::DEPTH_FORMAT,
                 depth_write_enabled: Some(s.depth_write),
-                depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                depth_compare: Some(s.depth_compare),
                 stencil: Default::default(),
                 bias: Default::default(),
             }),
@@ -133,28 +166,74 @@ pub(crate) fn make_pipelines(
                 module: &shader,
                 entry_point: Some(s.fs),
                 compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: color_format,
-                    blend: s.blend,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
+                targets: s.targets,
             }),
             multiview_mask: None,
             cache: None,
         })
     };
+    use wgpu::CompareFunction::{Always, LessEqual};
     use wgpu::PrimitiveTopology::{TriangleList, TriangleStrip};
+    let target = |blend| {
+        [Some(wgpu::ColorTargetState {
+            format: color_format,
+            blend,
+            write_mask: wgpu::ColorWrites::ALL,
+        })]
+    };
+    let (opaque, blended) = (target(None), target(Some(wgpu::BlendState::ALPHA_BLENDING)));
+    let add = wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    };
+    let sum = Some(wgpu::ColorTargetState {
+        format: ACCUM_FORMAT,
+        blend: Some(wgpu::BlendState {
+            color: add,
+            alpha: add,
+        }),
+        write_mask: wgpu::ColorWrites::ALL,
+    });
+    let sums = [sum.clone(), sum];
     let back = Some(wgpu::Face::Back);
+    let scene = &pipeline_layout;
     Pipelines {
-        splat: make(Spec {
-            label: "splats",
-            vs: "vs_splat",
-            fs: "fs_splat",
+        ewa_visibility: make(Spec {
+            label: "splat visibility",
+            vs: "vs_ewa",
+            fs: "fs_ewa_visibility",
             buffers: &[],
             topology: TriangleList,
             cull: None,
             depth_write: true,
-            blend: None,
+            depth_compare: LessEqual,
+            targets: &[],
+            layout: scene,
+        }),
+        ewa_attribute: make(Spec {
+            label: "splat attributes",
+            vs: "vs_ewa",
+            fs: "fs_ewa_attribute",
+            buffers: &[],
+            topology: TriangleList,
+            cull: None,
+            depth_write: false,
+            depth_compare: LessEqual,
+            targets: &sums,
+            layout: scene,
+        }),
+        ewa_normalise: make(Spec {
+            label: "splat normalisation",
+            vs: "vs_fullscreen",
+            fs: "fs_ewa_normalise",
+            buffers: &[],
+            topology: TriangleList,
+            cull: None,
+            depth_write: false,
+            depth_compare: Always,
+            targets: &opaque,
+            layout: &normalise_layout,
         }),
         mesh_opaque: make(Spec {
             label: "opaque meshes",
@@ -164,7 +243,9 @@ pub(crate) fn make_pipelines(
             topology: TriangleList,
             cull: back,
             depth_write: true,
-            blend: None,
+            depth_compare: LessEqual,
+            targets: &opaque,
+            layout: scene,
         }),
         mesh_translucent: make(Spec {
             label: "translucent meshes",
@@ -174,7 +255,9 @@ pub(crate) fn make_pipelines(
             topology: TriangleList,
             cull: back,
             depth_write: false,
-            blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+            depth_compare: LessEqual,
+            targets: &blended,
+            layout: scene,
         }),
         line: make(Spec {
             label: "lines",
@@ -184,7 +267,9 @@ pub(crate) fn make_pipelines(
             topology: TriangleStrip,
             cull: None,
             depth_write: true,
-            blend: None,
+            depth_compare: LessEqual,
+            targets: &opaque,
+            layout: scene,
         }),
     }
 }

@@ -11,11 +11,12 @@ use wgpu::util::DeviceExt;
 
 use crate::{
     Camera, Image, Overlay, RenderError, Splat, Style,
+    ewa::{self, FrameParams},
     geometry::{
         LineInstance, MAX_LINES, MESH_SLOTS, Mesh, MeshInstance, OverlayInstances, SLOT_ARROW_HEAD,
         SLOT_CONTACT, SLOT_CURSOR, SLOT_PROBE, unit_cone, unit_sphere,
     },
-    pipelines::{Pipelines, bind_group_layout, make_pipelines},
+    pipelines::{ACCUM_FORMAT, Pipelines, accum_layout, bind_group_layout, make_pipelines},
     scene::srgb_to_linear,
 };
 
@@ -30,6 +31,23 @@ struct FrameUniform {
     viewport: [f32; 4],
     light: [f32; 4],
     options: [f32; 4],
+    row_x: [f32; 4],
+    row_y: [f32; 4],
+    row_w: [f32; 4],
+    forward: [f32; 4],
+    right_t: [f32; 4],
+    up_t: [f32; 4],
+    ewa: [f32; 4],
+    ewa_k: [f32; 4],
+}
+
+/// The attribute pass's two sums at one size, and the bind group the normalisation reads them by.
+#[derive(Debug)]
+struct Accum {
+    size: (u32, u32),
+    color: wgpu::TextureView,
+    normal: wgpu::TextureView,
+    bind_group: wgpu::BindGroup,
 }
 
 /// A mesh uploaded to the GPU.
@@ -90,6 +108,8 @@ pub struct Renderer {
     pipelines: Pipelines,
     frame: wgpu::Buffer,
     layout: wgpu::BindGroupLayout,
+    accum_layout: wgpu::BindGroupLayout,
+    accum: Option<Accum>,
     bind_group: wgpu::BindGroup,
     sphere: GpuMesh,
     cone: GpuMesh,
@@ -172,7 +192,8 @@ impl Renderer {
             mapped_at_creation: false,
         });
         let layout = bind_group_layout(&device, std::mem::size_of::<FrameUniform>() as u64);
-        let pipelines = make_pipelines(&device, &layout, color_format);
+        let accum_layout = accum_layout(&device);
+        let pipelines = make_pipelines(&device, &layout, &accum_layout, color_format);
         let splats = splat_buffer(&device, Self::INITIAL_SPLATS);
         let bind_group = make_bind_group(&device, &layout, &frame, &splats);
         let instance_buffer = |label, bytes: usize| {
@@ -199,6 +220,8 @@ impl Renderer {
             pipelines,
             frame,
             layout,
+            accum_layout,
+            accum: None,
             bind_group,
             splats,
             splat_capacity: Self::INITIAL_SPLATS,
@@ -404,11 +427,14 @@ impl Renderer {
         copied.map_err(|_| RenderError::Readback(wgpu::BufferAsyncError))
     }
 
-    /// Records one frame into `encoder`: clears `color` (of the renderer's colour format) to the
-    /// background and `depth` (of [`Renderer::DEPTH_FORMAT`]) to 1, both `size` pixels, and draws
-    /// the splats and the overlay seen by `camera`. Uploads happen through the queue, so submit
-    /// the encoder before the next `draw`. Validates every input first; on error nothing is
-    /// recorded. Grows the splat buffer if this frame has more splats than any before.
+    /// Records one frame into `encoder`: the three splatting passes into `depth` (of
+    /// [`Renderer::DEPTH_FORMAT`], cleared to 1 and left holding the splats' pushed-back depth)
+    /// and the renderer's accumulation targets, then `color` (of the renderer's colour format)
+    /// cleared to the background, the normalised and shaded splats and the overlay seen by
+    /// `camera`, all `size` pixels. Uploads happen through the queue, so submit the encoder
+    /// before the next `draw`. Validates every input first; on error nothing is recorded.
+    /// Grows the splat buffer if this frame has more splats than any before, and (re)creates
+    /// the accumulation targets when `size` changes.
     #[allow(clippy::too_many_arguments)] // the target (encoder, two views, size) and the scene
     pub fn draw(
         &mut self,
@@ -421,8 +447,8 @@ impl Renderer {
         camera: &Camera,
     ) -> Result<(), RenderError> {
         let (width, height) = size;
-        if width == 0 || height == 0 {
-            let max = self.device.limits().max_texture_dimension_2d;
+        let max = self.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
             return Err(RenderError::InvalidSize { width, height, max });
         }
         camera.validate()?;
@@ -430,6 +456,14 @@ impl Renderer {
             return Err(RenderError::NonFinite {
                 what: "splat",
                 index,
+            });
+        }
+        let max_splats = self.device.limits().max_storage_buffer_binding_size as usize
+            / std::mem::size_of::<Splat>();
+        if splats.len() > max_splats {
+            return Err(RenderError::TooManySplats {
+                count: splats.len(),
+                max: max_splats,
             });
         }
         self.overlay.build(overlay, camera, height, &self.style)?;
@@ -440,14 +474,6 @@ impl Renderer {
             bytemuck::bytes_of(&self.frame_uniform(camera, size)),
         );
         if splats.len() > self.splat_capacity {
-            let max = self.device.limits().max_storage_buffer_binding_size as usize;
-            let max_splats = max / std::mem::size_of::<Splat>();
-            if splats.len() > max_splats {
-                return Err(RenderError::TooManySplats {
-                    count: splats.len(),
-                    max: max_splats,
-                });
-            }
             self.splat_capacity = splats.len().next_power_of_two().min(max_splats);
             self.splats = splat_buffer(&self.device, self.splat_capacity);
             self.bind_group =
@@ -464,7 +490,59 @@ impl Renderer {
         );
         self.queue
             .write_buffer(&self.lines, 0, bytemuck::cast_slice(&self.overlay.lines));
+        if self.accum.as_ref().is_none_or(|a| a.size != size) {
+            self.accum = Some(self.make_accum(size));
+        }
+        let accum = self.accum.as_ref().expect("made above");
+        // Splat vertices: six per splat (two triangles), pulled from the storage buffer.
+        let vertices = 0..6 * splats.len() as u32;
 
+        // Pass 1, visibility: depth only.
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("splat visibility"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(depth_attachment(depth, wgpu::LoadOp::Clear(1.0))),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if !splats.is_empty() {
+                pass.set_bind_group(0, &self.bind_group, &[]);
+                pass.set_pipeline(&self.pipelines.ewa_visibility);
+                pass.draw(vertices.clone(), 0..1);
+            }
+        }
+        // Pass 2, attributes: additive sums within ε of the front.
+        {
+            let zero = wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store: wgpu::StoreOp::Store,
+            };
+            let sum = |view| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: zero,
+                })
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("splat attributes"),
+                color_attachments: &[sum(&accum.color), sum(&accum.normal)],
+                depth_stencil_attachment: Some(depth_attachment(depth, wgpu::LoadOp::Load)),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if !splats.is_empty() {
+                pass.set_bind_group(0, &self.bind_group, &[]);
+                pass.set_pipeline(&self.pipelines.ewa_attribute);
+                pass.draw(vertices, 0..1);
+            }
+        }
+
+        // Pass 3, normalisation and shading, then the overlays over it.
         let [r, g, b, a] = self.style.background;
         let clear = wgpu::Color {
             r: srgb_to_linear(r) as f64,
@@ -483,26 +561,16 @@ impl Renderer {
                     store: wgpu::StoreOp::Store,
                 },
             })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
+            depth_stencil_attachment: Some(depth_attachment(depth, wgpu::LoadOp::Load)),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-
         if !splats.is_empty() {
-            // One triangle per splat, its three vertices pulled from the storage buffer: on the
-            // software rasteriser, cost goes with triangles (a quad costs 1.6x) and instancing
-            // (run instance by instance) costs more still.
-            pass.set_pipeline(&self.pipelines.splat);
-            pass.draw(0..3 * splats.len() as u32, 0..1);
+            pass.set_bind_group(1, &accum.bind_group, &[]);
+            pass.set_pipeline(&self.pipelines.ewa_normalise);
+            pass.draw(0..3, 0..1);
         }
         let used = self.overlay.used;
         let mesh = |pass: &mut wgpu::RenderPass<'_>, m: &GpuMesh, slot: u32| {
@@ -527,32 +595,78 @@ impl Renderer {
         Ok(())
     }
 
+    /// The accumulation targets for frames of `size` (allocates).
+    fn make_accum(&self, (width, height): (u32, u32)) -> Accum {
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let view = |label| {
+            self.texture_2d(label, width, height, ACCUM_FORMAT, usage)
+                .create_view(&Default::default())
+        };
+        let (color, normal) = (view("Σw·albedo, Σw"), view("Σw·normal"));
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("accumulation"),
+            layout: &self.accum_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&color),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&normal),
+                },
+            ],
+        });
+        Accum {
+            size: (width, height),
+            color,
+            normal,
+            bind_group,
+        }
+    }
+
     fn frame_uniform(&self, camera: &Camera, (width, height): (u32, u32)) -> FrameUniform {
-        let view_proj = camera.projection(width as f32 / height as f32) * camera.view();
-        let eye = Vec3::from(camera.eye);
-        let forward = (Vec3::from(camera.target) - eye).normalize();
-        let right = forward.cross(Vec3::from(camera.up)).normalize();
-        let up = right.cross(forward);
+        let f = FrameParams::new(camera, (width, height), &self.style);
         let l = &self.style.lighting;
         let (w, h) = (width as f32, height as f32);
+        let v4 = |v: Vec3| v.extend(0.0).to_array();
         FrameUniform {
-            view_proj: view_proj.to_cols_array_2d(),
-            eye: eye.extend(1.0).into(),
-            right: right.extend(0.0).into(),
-            up: up.extend(0.0).into(),
+            view_proj: f.view_proj.to_cols_array_2d(),
+            eye: f.eye.extend(1.0).into(),
+            right: v4(f.right),
+            up: v4(f.up),
             viewport: [w, h, 1.0 / w, 1.0 / h],
             light: [l.ambient, l.diffuse, l.specular, l.shininess],
-            options: [
-                if self.style.cull_back_facing {
-                    1.0
-                } else {
-                    0.0
-                },
-                0.0,
-                0.0,
-                0.0,
+            options: [if f.cull { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0],
+            row_x: f.row_x.to_array(),
+            row_y: f.row_y.to_array(),
+            row_w: f.row_w.to_array(),
+            forward: v4(f.forward),
+            right_t: v4(f.right_t),
+            up_t: v4(f.up_t),
+            ewa: [f.depth_a, f.depth_b, f.near, ewa::EPS_PX * f.px_per_depth],
+            ewa_k: [
+                ewa::GAUSS_K,
+                ewa::EPS_FRACTION,
+                ewa::PREFILTER_PX,
+                ewa::MIN_WEIGHT,
             ],
         }
+    }
+}
+
+/// The depth attachment of every pass: `load`, then stored.
+fn depth_attachment(
+    view: &wgpu::TextureView,
+    load: wgpu::LoadOp<f32>,
+) -> wgpu::RenderPassDepthStencilAttachment<'_> {
+    wgpu::RenderPassDepthStencilAttachment {
+        view,
+        depth_ops: Some(wgpu::Operations {
+            load,
+            store: wgpu::StoreOp::Store,
+        }),
+        stencil_ops: None,
     }
 }
 

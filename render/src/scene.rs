@@ -2,34 +2,96 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// One surfel: a disk centred at `position`, in the plane whose unit normal is `normal`.
+/// One surface splat: an ellipse centred at `position` in the plane whose unit normal is `normal`,
+/// blended with its neighbours by a Gaussian of its elliptical distance (see the crate doc).
 ///
-/// 32 bytes, `#[repr(C)]` and `Pod`: a slice of splats is uploaded to the GPU as it is. A normal
-/// of (near) zero length draws the disk facing the camera. `radius` (metres) comes from local
-/// spacing, computed by the caller; a radius of 0 draws nothing. `color` is sRGB, alpha ignored
-/// (splats are opaque).
+/// 48 bytes, `#[repr(C)]` and `Pod`: a slice of splats is uploaded to the GPU as it is. The
+/// ellipse's major semi-axis is `radius` metres along `axis` (a tangent direction; it is made
+/// orthogonal to the normal before use) and its minor semi-axis `minor_radius` along
+/// `normal × axis`. A zero `axis` makes an isotropic disk of `radius` (`minor_radius` is then
+/// ignored). Radii come from the local spacing, computed by the caller (see [`splat_shape`]);
+/// a radius of 0 draws nothing. A normal of (near) zero length draws the splat facing the
+/// camera. `color` is sRGB, alpha ignored (splats are opaque).
+///
+/// [`splat_shape`]: crate::splat_shape
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Splat {
-    /// Centre of the disk.
+    /// Centre of the ellipse.
     pub position: [f32; 3],
-    /// Unit normal of the disk (normalised again on the GPU).
+    /// Unit normal of the ellipse's plane (normalised again before use).
     pub normal: [f32; 3],
-    /// Disk radius in metres (≥ 0).
+    /// Major semi-axis in metres (≥ 0), along `axis`; the radius of a disk.
     pub radius: f32,
     /// sRGB colour; alpha is ignored.
     pub color: [u8; 4],
+    /// Direction of the major axis in the tangent plane; zero for an isotropic disk.
+    pub axis: [f32; 3],
+    /// Minor semi-axis in metres (≥ 0), along `normal × axis`; ignored when `axis` is zero.
+    pub minor_radius: f32,
 }
 
 impl Splat {
-    /// Whether every field is finite and the radius is not negative.
+    /// An isotropic (circular) splat of `radius` metres.
+    pub fn disk(position: [f32; 3], normal: [f32; 3], radius: f32, color: [u8; 4]) -> Self {
+        Self {
+            position,
+            normal,
+            radius,
+            color,
+            axis: [0.0; 3],
+            minor_radius: radius,
+        }
+    }
+
+    /// An elliptical splat: semi-axes `radius` along the tangent `axis` and `minor_radius`
+    /// across it (a zero `axis` gives a disk of `radius`).
+    pub fn ellipse(
+        position: [f32; 3],
+        normal: [f32; 3],
+        axis: [f32; 3],
+        radius: f32,
+        minor_radius: f32,
+        color: [u8; 4],
+    ) -> Self {
+        Self {
+            position,
+            normal,
+            radius,
+            color,
+            axis,
+            minor_radius,
+        }
+    }
+
+    /// A splat of the `shape` [`splat_shape`](crate::splat_shape) computed for this point.
+    pub fn with_shape(
+        position: [f32; 3],
+        normal: [f32; 3],
+        shape: crate::SplatShape,
+        color: [u8; 4],
+    ) -> Self {
+        Self::ellipse(
+            position,
+            normal,
+            shape.axis,
+            shape.radius,
+            shape.minor_radius,
+            color,
+        )
+    }
+
+    /// Whether every field is finite and no radius is negative.
     pub fn is_valid(&self) -> bool {
         self.position
             .iter()
             .chain(&self.normal)
+            .chain(&self.axis)
             .all(|v| v.is_finite())
             && self.radius.is_finite()
             && self.radius >= 0.0
+            && self.minor_radius.is_finite()
+            && self.minor_radius >= 0.0
     }
 }
 
@@ -183,8 +245,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn splat_is_32_bytes() {
-        assert_eq!(std::mem::size_of::<Splat>(), 32);
+    fn splat_is_48_bytes() {
+        assert_eq!(std::mem::size_of::<Splat>(), 48);
     }
 
     #[test]
@@ -196,10 +258,7 @@ mod tests {
 
     #[test]
     fn invalid_splats_are_caught() {
-        let ok = Splat {
-            radius: 1.0,
-            ..Default::default()
-        };
+        let ok = Splat::disk([0.0; 3], [0.0, 0.0, 1.0], 1.0, [255; 4]);
         assert!(ok.is_valid());
         assert!(!Splat { radius: -1.0, ..ok }.is_valid());
         assert!(
@@ -212,6 +271,20 @@ mod tests {
         assert!(
             !Splat {
                 normal: [0.0, f32::INFINITY, 0.0],
+                ..ok
+            }
+            .is_valid()
+        );
+        assert!(
+            !Splat {
+                minor_radius: -0.5,
+                ..ok
+            }
+            .is_valid()
+        );
+        assert!(
+            !Splat {
+                axis: [f32::NAN, 0.0, 0.0],
                 ..ok
             }
             .is_valid()

@@ -1,6 +1,10 @@
-// Shaders of the scene renderer: surfel splats, lit meshes (opaque and translucent), wide lines.
+// Shaders of the scene renderer: surface splatting in three passes (visibility, attribute,
+// normalisation with deferred shading), lit meshes (opaque and translucent), wide lines.
 // Colours arrive sRGB-encoded (splats) or linear (uniform/instance data); all lighting is in
 // linear colour and the target is sRGB, so the hardware encodes on write.
+//
+// `ewa_setup` and `ewa_eval` copy `src/ewa.rs` line by line (the CPU renderer runs that file):
+// change one, change the other.
 
 struct Frame {
     view_proj: mat4x4<f32>,
@@ -10,11 +14,23 @@ struct Frame {
     viewport: vec4<f32>,  // width, height, 1/width, 1/height (pixels)
     light: vec4<f32>,     // ambient, diffuse, specular, shininess
     options: vec4<f32>,   // x: 1 to cull splats whose normal faces away from the eye
+    row_x: vec4<f32>,     // homogeneous pixel x·w of a world point (p, 1)
+    row_y: vec4<f32>,     // homogeneous pixel y·w
+    row_w: vec4<f32>,     // view depth w
+    forward: vec4<f32>,   // xyz: view direction
+    right_t: vec4<f32>,   // xyz: right · tan(fov/2) · aspect
+    up_t: vec4<f32>,      // xyz: up · tan(fov/2)
+    ewa: vec4<f32>,       // NDC depth = x + y / w; z: near; w: EPS_PX · pixel size at depth 1
+    ewa_k: vec4<f32>,     // x: GAUSS_K, y: EPS_FRACTION, z: PREFILTER_PX, w: MIN_WEIGHT
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-// The splats as uploaded (`Splat`, 32 bytes): [p.x, p.y, p.z, n.x], [n.y, n.z, radius, rgba8].
+// The splats as uploaded (`Splat`, 48 bytes):
+// [p.x, p.y, p.z, n.x], [n.y, n.z, radius, rgba8], [axis.x, axis.y, axis.z, minor_radius].
 @group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
+// The attribute pass's sums, read by the normalisation pass.
+@group(1) @binding(0) var accum_color: texture_2d<f32>;
+@group(1) @binding(1) var accum_normal: texture_2d<f32>;
 
 fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
     let lo = c / 12.92;
@@ -23,11 +39,14 @@ fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
 }
 
 // Headlight: albedo·(ambient + diffuse·|n·l|) + specular·|n·l|^shininess (Lighting::shade).
-fn shade(albedo: vec3<f32>, n: vec3<f32>, world: vec3<f32>) -> vec3<f32> {
-    let l = normalize(frame.eye.xyz - world);
+fn shade_dir(albedo: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> vec3<f32> {
     let d = min(abs(dot(n, l)), 1.0);
     let s = frame.light.z * pow(d, frame.light.w);
     return albedo * (frame.light.x + frame.light.y * d) + vec3<f32>(s);
+}
+
+fn shade(albedo: vec3<f32>, n: vec3<f32>, world: vec3<f32>) -> vec3<f32> {
+    return shade_dir(albedo, n, normalize(frame.eye.xyz - world));
 }
 
 // Triangle-strip corner of a quad: 0 (-1,-1), 1 (1,-1), 2 (-1,1), 3 (1,1).
@@ -35,35 +54,33 @@ fn corner(vi: u32) -> vec2<f32> {
     return vec2<f32>(f32(vi & 1u), f32(vi >> 1u)) * 2.0 - 1.0;
 }
 
-// ---- surfel splats ----
+// ---- surface splatting ----
 
-struct SplatOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) uv: vec2<f32>,
-    @location(1) world: vec3<f32>,
-    @location(2) @interpolate(flat) normal: vec3<f32>,
-    @location(3) @interpolate(flat) albedo: vec3<f32>,
+struct Ewa {
+    center_wc: vec4<f32>, // projected centre (pixels), centre view depth, ε
+    ainv: vec4<f32>,      // A⁻¹ row-major
+    k: vec4<f32>,         // (uz, vz), 1 if the object-space term exists, 1 if drawn
+    bbox: vec4<f32>,      // x0, y0, x1, y1 (pixels)
+    albedo: vec3<f32>,
+    normal: vec3<f32>,
 };
 
-// Splat vi / 3, corner vi % 3 of the one triangle that encloses its disk.
-@vertex
-fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
-    let a = splats[2u * (vi / 3u)];
-    let b = splats[2u * (vi / 3u) + 1u];
-    let position = a.xyz;
-    let normal = vec3<f32>(a.w, b.xy);
-    let radius = b.z;
-    // The equilateral triangle whose incircle is the unit disk: corners at radius 2.
-    var corners = array<vec2<f32>, 3>(
-        vec2<f32>(0.0, 2.0), vec2<f32>(-1.7320508, -1.0), vec2<f32>(1.7320508, -1.0)
-    );
-    let uv = corners[vi % 3u];
+// `ewa::setup`: the splat's projected ellipse; k.w = 0 when it draws nothing.
+fn ewa_setup(i: u32) -> Ewa {
+    var e: Ewa;
+    e.k = vec4<f32>(0.0);
+    let a4 = splats[3u * i];
+    let b4 = splats[3u * i + 1u];
+    let c4 = splats[3u * i + 2u];
+    let p = a4.xyz;
+    let raw_n = vec3<f32>(a4.w, b4.xy);
+    let to_eye = frame.eye.xyz - p;
+    let len2 = dot(raw_n, raw_n);
     var n: vec3<f32>;
     var t1: vec3<f32>;
     var t2: vec3<f32>;
-    let len2 = dot(normal, normal);
     if len2 > 1e-12 {
-        n = normal * inverseSqrt(len2);
+        n = raw_n / sqrt(len2);
         // Orthonormal tangent basis without branches on the axis (Duff et al. 2017).
         let sgn = select(-1.0, 1.0, n.z >= 0.0);
         let a = -1.0 / (sgn + n.z);
@@ -71,29 +88,197 @@ fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
         t1 = vec3<f32>(1.0 + sgn * n.x * n.x * a, sgn * b, -sgn * n.x);
         t2 = vec3<f32>(b, sgn + n.y * n.y * a, -n.y);
     } else {
-        n = normalize(frame.eye.xyz - position);
+        n = normalize(to_eye);
         t1 = frame.right.xyz;
         t2 = frame.up.xyz;
     }
-    let world = position + radius * (uv.x * t1 + uv.y * t2);
-    var out: SplatOut;
-    out.clip = frame.view_proj * vec4<f32>(world, 1.0);
-    if frame.options.x > 0.5 && len2 > 1e-12 && dot(n, frame.eye.xyz - position) < 0.0 {
-        out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0); // back-facing: one point outside the view
+    let facing = dot(n, to_eye);
+    if frame.options.x > 0.5 && len2 > 1e-12 && facing < 0.0 {
+        return e;
     }
-    out.uv = uv;
-    out.world = world;
-    out.normal = n;
-    out.albedo = srgb_to_linear(unpack4x8unorm(bitcast<u32>(b.w)).rgb);
+    let ra = b4.z;
+    let axis = c4.xyz;
+    let ax = axis - n * dot(axis, n);
+    let ax2 = dot(ax, ax);
+    var du = t1;
+    var dv = t2;
+    var rb = ra;
+    if ax2 > 1e-12 {
+        du = ax / sqrt(ax2);
+        dv = cross(n, du);
+        rb = c4.w;
+    }
+    if !(ra > 0.0 && rb > 0.0) {
+        return e;
+    }
+    let u = du * ra;
+    let v = dv * rb;
+    let pc = vec4<f32>(p, 1.0);
+    let wc = dot(frame.row_w, pc);
+    let cx = dot(frame.row_x, pc) / wc;
+    let cy = dot(frame.row_y, pc) / wc;
+    let hu = vec3<f32>(dot(frame.row_x.xyz, u), dot(frame.row_y.xyz, u), dot(frame.row_w.xyz, u));
+    let hv = vec3<f32>(dot(frame.row_x.xyz, v), dot(frame.row_y.xyz, v), dot(frame.row_w.xyz, v));
+    let ux = hu.x - cx * hu.z;
+    let uy = hu.y - cy * hu.z;
+    let uz = hu.z;
+    let vx = hv.x - cx * hv.z;
+    let vy = hv.y - cy * hv.z;
+    let vz = hv.z;
+    if wc - sqrt(uz * uz + vz * vz) < 0.5 * frame.ewa.z {
+        return e;
+    }
+    let qa = wc * wc - uz * uz - vz * vz;
+    let qbx = -(ux * uz + vx * vz);
+    let qcx = -(ux * ux + vx * vx);
+    let rx = sqrt(max(qbx * qbx - qa * qcx, 0.0));
+    let qby = -(uy * uz + vy * vz);
+    let qcy = -(uy * uy + vy * vy);
+    let ry = sqrt(max(qby * qby - qa * qcy, 0.0));
+    let pf = frame.ewa_k.z;
+    e.bbox = vec4<f32>(
+        cx + min((qbx - rx) / qa, -pf),
+        cy + min((qby - ry) / qa, -pf),
+        cx + max((qbx + rx) / qa, pf),
+        cy + max((qby + ry) / qa, pf),
+    );
+    let det = ux * vy - vx * uy;
+    let obj = abs(det) > 1e-4 * sqrt(ux * ux + uy * uy) * sqrt(vx * vx + vy * vy);
+    e.ainv = vec4<f32>(0.0);
+    if obj {
+        e.ainv = vec4<f32>(vy, -vx, -uy, ux) / det;
+    }
+    e.center_wc = vec4<f32>(cx, cy, wc, frame.ewa_k.y * ra + frame.ewa.w * wc);
+    e.k = vec4<f32>(uz, vz, select(0.0, 1.0, obj), 1.0);
+    e.albedo = srgb_to_linear(unpack4x8unorm(bitcast<u32>(b4.w)).rgb);
+    e.normal = select(n, -n, facing < 0.0);
+    return e;
+}
+
+// `ewa::eval` at pixel centre `pos`: (weight, depth, pushed depth, 1) or w = 0 outside.
+fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>, pos: vec2<f32>) -> vec4<f32> {
+    if pos.x < bbox.x || pos.x > bbox.z || pos.y < bbox.y || pos.y > bbox.w {
+        return vec4<f32>(0.0);
+    }
+    let dx = pos.x - center_wc.x;
+    let dy = pos.y - center_wc.y;
+    let gx = ainv.x * dx + ainv.y * dy;
+    let gy = ainv.z * dx + ainv.w * dy;
+    let den = 1.0 - (k.x * gx + k.y * gy);
+    let pf = frame.ewa_k.z;
+    let d2_scr = (dx * dx + dy * dy) * (1.0 / (pf * pf));
+    var d2 = d2_scr;
+    var w = center_wc.z;
+    if k.z > 0.5 && den > 1e-6 {
+        let scale = center_wc.z / den;
+        let d2_obj = (gx * gx + gy * gy) * (scale * scale);
+        if d2_obj <= d2_scr {
+            d2 = d2_obj;
+            w = scale;
+        }
+    }
+    if d2 > 1.0 {
+        return vec4<f32>(0.0);
+    }
+    let depth = frame.ewa.x + frame.ewa.y / w;
+    if !(depth >= 0.0 && depth <= 1.0) {
+        return vec4<f32>(0.0);
+    }
+    let pushed = min(frame.ewa.x + frame.ewa.y / (w + center_wc.w), 1.0);
+    let edge = exp(-frame.ewa_k.x);
+    return vec4<f32>((exp(-frame.ewa_k.x * d2) - edge) * (1.0 / (1.0 - edge)), depth, pushed, 1.0);
+}
+
+struct EwaOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) @interpolate(flat) center_wc: vec4<f32>,
+    @location(1) @interpolate(flat) ainv: vec4<f32>,
+    @location(2) @interpolate(flat) k: vec4<f32>,
+    @location(3) @interpolate(flat) bbox: vec4<f32>,
+    @location(4) @interpolate(flat) albedo: vec3<f32>,
+    @location(5) @interpolate(flat) normal: vec3<f32>,
+};
+
+// Splat vi / 6, corner vi % 6 of the two triangles covering its pixel box exactly: half the
+// fragments of one triangle enclosing the box, which costs more than the extra triangle.
+@vertex
+fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
+    let e = ewa_setup(vi / 6u);
+    var out: EwaOut;
+    out.center_wc = e.center_wc;
+    out.ainv = e.ainv;
+    out.k = e.k;
+    out.bbox = e.bbox;
+    out.albedo = e.albedo;
+    out.normal = e.normal;
+    if e.k.w < 0.5 {
+        out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0); // draws nothing: one point outside the view
+        return out;
+    }
+    let lo = clamp(e.bbox.xy, vec2<f32>(-1.0), frame.viewport.xy + 1.0);
+    let hi = clamp(e.bbox.zw, vec2<f32>(-1.0), frame.viewport.xy + 1.0);
+    // Corners 0 1 2, 2 1 3 of the box (bit 0: x high, bit 1: y high).
+    var quad = array<u32, 6>(0u, 1u, 2u, 2u, 1u, 3u);
+    let c = quad[vi % 6u];
+    let px = select(lo, hi, vec2<bool>((c & 1u) != 0u, (c & 2u) != 0u));
+    out.clip = vec4<f32>(px.x * 2.0 * frame.viewport.z - 1.0, 1.0 - px.y * 2.0 * frame.viewport.w, 0.5, 1.0);
     return out;
 }
 
+// Pass 1, visibility: the nearest depth pushed back by ε.
 @fragment
-fn fs_splat(v: SplatOut) -> @location(0) vec4<f32> {
-    if dot(v.uv, v.uv) > 1.0 {
+fn fs_ewa_visibility(v: EwaOut) -> @builtin(frag_depth) f32 {
+    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.clip.xy);
+    if s.w < 0.5 {
         discard;
     }
-    return vec4<f32>(shade(v.albedo, v.normal, v.world), 1.0);
+    return s.z;
+}
+
+struct AttributeOut {
+    @location(0) color: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+};
+
+// Pass 2, attributes: every fragment within ε of the front adds w·albedo, w, w·normal.
+@fragment
+fn fs_ewa_attribute(v: EwaOut) -> AttributeOut {
+    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.clip.xy);
+    if s.w < 0.5 {
+        discard;
+    }
+    var out: AttributeOut;
+    out.color = vec4<f32>(s.x * v.albedo, s.x);
+    out.normal = vec4<f32>(s.x * v.normal, 0.0);
+    out.depth = s.y;
+    return out;
+}
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((vi << 1u) & 2u), f32(vi & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+// Pass 3, normalisation: Σw·albedo / Σw, shaded with the normalised Σw·normal; the background
+// (the clear colour) where nothing weighs.
+@fragment
+fn fs_ewa_normalise(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+    let ip = vec2<i32>(pos.xy);
+    let c = textureLoad(accum_color, ip, 0);
+    if c.w < frame.ewa_k.w {
+        discard;
+    }
+    let nx = pos.x * 2.0 * frame.viewport.z - 1.0;
+    let ny = 1.0 - pos.y * 2.0 * frame.viewport.w;
+    let l = -normalize(frame.forward.xyz + nx * frame.right_t.xyz + ny * frame.up_t.xyz);
+    let sum_n = textureLoad(accum_normal, ip, 0).xyz;
+    var n = l;
+    if dot(sum_n, sum_n) > 0.0 {
+        n = normalize(sum_n);
+    }
+    return vec4<f32>(shade_dir(c.rgb / c.w, n, l), 1.0);
 }
 
 // ---- lit meshes (cursor, arrow head, probe) ----

@@ -63,11 +63,13 @@ impl SplatCache {
                 .zip(&snap.normals)
                 .zip(&snap.colors)
                 .zip(&self.radii)
-                .map(|(((p, n), c), r)| Splat {
-                    position: p.as_vec3().to_array(),
-                    normal: n.as_vec3().to_array(),
-                    radius: *r,
-                    color: [c[0], c[1], c[2], 255],
+                .map(|(((p, n), c), r)| {
+                    Splat::disk(
+                        p.as_vec3().to_array(),
+                        n.as_vec3().to_array(),
+                        *r,
+                        [c[0], c[1], c[2], 255],
+                    )
                 }),
         );
         &self.splats

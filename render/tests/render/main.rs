@@ -1,5 +1,11 @@
 //! Renders small scenes on the real device (lavapipe in CI) and checks pixels where geometry
-//! projects. A machine without a Vulkan adapter fails every test here with the install hint.
+//! projects. A machine without a Vulkan adapter fails every GPU test here with the install
+//! hint. The modules: `quality` (sparse vs dense, paint edges, pre-filter; software renderer),
+//! `backends` (GPU against software, the headless facade and its fallback).
+
+mod backends;
+mod quality;
+mod scenes;
 
 use render::{
     Camera, Ellipsoid, Image, Overlay, RenderError, Renderer, Splat, Style, linear_to_srgb,
@@ -24,12 +30,7 @@ fn sphere(n: usize, center: [f32; 3], radius: f32, color: [u8; 4]) -> Vec<Splat>
             let phi = golden * i as f32;
             let normal = [r * phi.cos(), r * phi.sin(), z];
             let position = [0, 1, 2].map(|k| center[k] + radius * normal[k]);
-            Splat {
-                position,
-                normal,
-                radius: 0.8 * spacing,
-                color,
-            }
+            Splat::disk(position, normal, 0.8 * spacing, color)
         })
         .collect()
 }
@@ -95,12 +96,7 @@ fn a_splat_is_a_round_disk_in_its_tangent_plane() {
     let mut r = renderer();
     let cam = framing(0.05);
     let radius = 0.03;
-    let facing = Splat {
-        position: [0.0; 3],
-        normal: [0.0, 0.0, 1.0],
-        radius,
-        color: [255; 4],
-    };
+    let facing = Splat::disk([0.0; 3], [0.0, 0.0, 1.0], radius, [255; 4]);
     let img = r.render(&[facing], &Overlay::default(), &cam).unwrap();
     let at = |p: [f32; 3]| px(&img, cam.project(p, W, H).unwrap());
     for k in [0.0, 0.5, 0.95] {
@@ -455,12 +451,7 @@ fn adapter_is_named() {
 fn back_facing_splats_are_culled_only_when_asked() {
     let mut r = renderer();
     let cam = framing(0.05);
-    let away = Splat {
-        position: [0.0; 3],
-        normal: [0.0, 0.0, -1.0],
-        radius: 0.02,
-        color: [255; 4],
-    };
+    let away = Splat::disk([0.0; 3], [0.0, 0.0, -1.0], 0.02, [255; 4]);
     let drawn = r.render(&[away], &Overlay::default(), &cam).unwrap();
     assert_ne!(
         drawn.pixel(W / 2, H / 2),

@@ -1,0 +1,337 @@
+//! The surface-splatting math both backends share: per-frame parameters, per-splat setup (its
+//! projected ellipse as a homography, its screen bounding box) and the per-pixel weight and
+//! depths. `shaders.wgsl` (`ewa_setup`, `ewa_eval`) is a line-by-line copy of this file in
+//! WGSL: change one, change the other.
+//!
+//! Pixel space: x right, y down, pixel `(i, j)` covers `[i, i+1) × [j, j+1)` and is sampled at
+//! its centre. A splat is the ellipse `c + û·U + v̂·V`, `û² + v̂² ≤ 1`, with `U`, `V` its semi-axis
+//! vectors. The map from `(û, v̂, 1)` to homogeneous pixel coordinates is a 3×3 homography `H`;
+//! taken relative to the projected centre `(cx, cy)` it is `[[ux, vx, 0], [uy, vy, 0],
+//! [uz, vz, wc]]` (`wc` the centre's view depth), whose inverse is closed-form: for a pixel at
+//! `(dx, dy)` from the centre, `g = A⁻¹·(dx, dy)` with `A = [[ux, vx], [uy, vy]]`, the ray meets
+//! the splat's plane at `(û, v̂) = w·g` and view depth `w = wc / (1 − (uz, vz)·g)`: exact
+//! per-pixel ray casting, with no large coordinates cancelling.
+
+use glam::{Mat4, Vec2, Vec3, Vec4, Vec4Swizzles};
+
+use crate::{Camera, Splat, Style, scene::srgb_to_linear};
+
+/// The weight of a splat at elliptical distance `d` (1 at the edge) is the Gaussian
+/// `exp(-GAUSS_K · d²)` (σ = radius/2) truncated at the edge and lowered by its value there,
+/// e^-2 ≈ 0.135, then scaled back to 1 at the centre: `(exp(-K d²) − e^-K) / (1 − e^-K)`.
+/// Continuous at the edge, so a splat's outline leaves no step in the blend.
+pub const GAUSS_K: f32 = 2.0;
+/// `exp(-GAUSS_K)`: the Gaussian at the ellipse's edge, subtracted so weights fall to 0 there.
+const EDGE_WEIGHT: f32 = 0.135_335_28;
+/// The visibility pass pushes each splat's depth back by this fraction of its major radius
+/// (in view depth, metres); fragments within that of the front blend.
+pub const EPS_FRACTION: f32 = 1.0;
+/// The push-back also adds this many pixel footprints (at the splat's depth): the pre-filter's
+/// pixels take the centre's depth, off the surface by up to a pixel times the tilt's tangent.
+pub const EPS_PX: f32 = 2.0;
+/// Screen-space pre-filter radius in pixels: a pixel within this of a splat's projected centre
+/// takes its screen distance when it is smaller than the object-space one, so every splat keeps
+/// at least this footprint (never vanishes between pixel centres).
+pub const PREFILTER_PX: f32 = 2.0;
+/// Pixels whose summed weight is below this show the background (a covered pixel has ≥ e^-2).
+pub const MIN_WEIGHT: f32 = 1e-5;
+
+/// Per-frame constants: the camera as pixel-space rows, the ray basis, depth mapping, style.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FrameParams {
+    pub view_proj: Mat4,
+    /// Rows giving homogeneous pixel coordinates `(x·w, y·w, w)` of a world point `(p, 1)`.
+    pub row_x: Vec4,
+    pub row_y: Vec4,
+    pub row_w: Vec4,
+    pub eye: Vec3,
+    pub forward: Vec3,
+    /// Camera right and up, scaled by the half-extents of the image plane at unit depth.
+    pub right_t: Vec3,
+    pub up_t: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub size: Vec2,
+    /// NDC depth of view depth `w` is `depth_a + depth_b / w`.
+    pub depth_a: f32,
+    pub depth_b: f32,
+    pub near: f32,
+    /// World size of a pixel at unit view depth.
+    pub px_per_depth: f32,
+    pub cull: bool,
+}
+
+impl FrameParams {
+    /// The parameters of `camera` (validated by the caller) for a `width × height` target.
+    pub fn new(camera: &Camera, (width, height): (u32, u32), style: &Style) -> Self {
+        let (w, h) = (width as f32, height as f32);
+        let aspect = w / h;
+        let view_proj = camera.projection(aspect) * camera.view();
+        let (r0, r1, r3) = (view_proj.row(0), view_proj.row(1), view_proj.row(3));
+        let eye = Vec3::from(camera.eye);
+        let forward = (Vec3::from(camera.target) - eye).normalize();
+        let right = forward.cross(Vec3::from(camera.up)).normalize();
+        let up = right.cross(forward);
+        let tan = (0.5 * camera.fov_y_deg.to_radians()).tan();
+        let (near, far) = (camera.near, camera.far);
+        Self {
+            view_proj,
+            row_x: 0.5 * w * (r0 + r3),
+            row_y: 0.5 * h * (r3 - r1),
+            row_w: r3,
+            eye,
+            forward,
+            right_t: right * (tan * aspect),
+            up_t: up * tan,
+            right,
+            up,
+            size: Vec2::new(w, h),
+            depth_a: far / (far - near),
+            depth_b: -far * near / (far - near),
+            near,
+            px_per_depth: 2.0 * tan / h,
+            cull: style.cull_back_facing,
+        }
+    }
+
+    /// Unit vector from the surface seen at pixel centre `(px, py)` towards the eye.
+    pub fn eye_dir(&self, px: f32, py: f32) -> Vec3 {
+        let nx = px / self.size.x * 2.0 - 1.0;
+        let ny = 1.0 - py / self.size.y * 2.0;
+        -(self.forward + nx * self.right_t + ny * self.up_t).normalize()
+    }
+}
+
+/// One splat ready to rasterise.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct SplatSetup {
+    /// Projected centre in pixels.
+    pub center: Vec2,
+    /// `A⁻¹`, row-major.
+    pub ainv: Vec4,
+    /// `(uz, vz)`.
+    pub k: Vec2,
+    /// The centre's view depth.
+    pub wc: f32,
+    /// Depth push-back of the visibility pass (view depth).
+    pub eps: f32,
+    /// Whether the object-space term exists (false when the splat is seen edge-on).
+    pub obj: bool,
+    /// Pixel-space box `(x0, y0, x1, y1)` holding every pixel centre of positive weight.
+    pub bbox: Vec4,
+    /// Linear albedo.
+    pub albedo: Vec3,
+    /// Unit normal turned towards the eye.
+    pub normal: Vec3,
+}
+
+/// Builds the setup of `s`, or `None` when it draws nothing (zero radius, culled, or reaching
+/// behind half the near plane).
+pub(crate) fn setup(s: &Splat, f: &FrameParams) -> Option<SplatSetup> {
+    let p = Vec3::from(s.position);
+    let raw_n = Vec3::from(s.normal);
+    let to_eye = f.eye - p;
+    let len2 = raw_n.dot(raw_n);
+    let (n, t1, t2) = if len2 > 1e-12 {
+        let n = raw_n / len2.sqrt();
+        // Orthonormal tangent basis without branches on the axis (Duff et al. 2017).
+        let sgn = if n.z >= 0.0 { 1.0 } else { -1.0 };
+        let a = -1.0 / (sgn + n.z);
+        let b = n.x * n.y * a;
+        (
+            n,
+            Vec3::new(1.0 + sgn * n.x * n.x * a, sgn * b, -sgn * n.x),
+            Vec3::new(b, sgn + n.y * n.y * a, -n.y),
+        )
+    } else {
+        (to_eye.normalize(), f.right, f.up)
+    };
+    let facing = n.dot(to_eye);
+    if f.cull && len2 > 1e-12 && facing < 0.0 {
+        return None;
+    }
+    let a = s.radius;
+    let axis = Vec3::from(s.axis);
+    let ax = axis - n * axis.dot(n);
+    let ax2 = ax.dot(ax);
+    let (du, dv, b) = if ax2 > 1e-12 {
+        let t = ax / ax2.sqrt();
+        (t, n.cross(t), s.minor_radius)
+    } else {
+        (t1, t2, a)
+    };
+    if !(a > 0.0 && b > 0.0) {
+        return None;
+    }
+    let (u, v) = (du * a, dv * b);
+    let pc = p.extend(1.0);
+    let wc = f.row_w.dot(pc);
+    let cx = f.row_x.dot(pc) / wc;
+    let cy = f.row_y.dot(pc) / wc;
+    let hu = Vec3::new(
+        f.row_x.xyz().dot(u),
+        f.row_y.xyz().dot(u),
+        f.row_w.xyz().dot(u),
+    );
+    let hv = Vec3::new(
+        f.row_x.xyz().dot(v),
+        f.row_y.xyz().dot(v),
+        f.row_w.xyz().dot(v),
+    );
+    let (ux, uy, uz) = (hu.x - cx * hu.z, hu.y - cy * hu.z, hu.z);
+    let (vx, vy, vz) = (hv.x - cx * hv.z, hv.y - cy * hv.z, hv.z);
+    // The nearest point of the ellipse must be in front of half the near plane.
+    if wc - (uz * uz + vz * vz).sqrt() < 0.5 * f.near {
+        return None;
+    }
+    // Tangents x = const to the projected ellipse: roots of a quadratic, relative to the centre.
+    let qa = wc * wc - uz * uz - vz * vz;
+    let extent = |pu: f32, pv: f32| {
+        let qb = -(pu * uz + pv * vz);
+        let qc = -(pu * pu + pv * pv);
+        let r = (qb * qb - qa * qc).max(0.0).sqrt();
+        ((qb - r) / qa, (qb + r) / qa)
+    };
+    let (xl, xh) = extent(ux, vx);
+    let (yl, yh) = extent(uy, vy);
+    let bbox = Vec4::new(
+        cx + xl.min(-PREFILTER_PX),
+        cy + yl.min(-PREFILTER_PX),
+        cx + xh.max(PREFILTER_PX),
+        cy + yh.max(PREFILTER_PX),
+    );
+    let det = ux * vy - vx * uy;
+    let obj = det.abs() > 1e-4 * (ux * ux + uy * uy).sqrt() * (vx * vx + vy * vy).sqrt();
+    let ainv = if obj {
+        Vec4::new(vy, -vx, -uy, ux) / det
+    } else {
+        Vec4::ZERO
+    };
+    let albedo = Vec3::new(
+        srgb_to_linear(s.color[0]),
+        srgb_to_linear(s.color[1]),
+        srgb_to_linear(s.color[2]),
+    );
+    Some(SplatSetup {
+        center: Vec2::new(cx, cy),
+        ainv,
+        k: Vec2::new(uz, vz),
+        wc,
+        eps: EPS_FRACTION * a + EPS_PX * f.px_per_depth * wc,
+        obj,
+        bbox,
+        albedo,
+        normal: if facing < 0.0 { -n } else { n },
+    })
+}
+
+/// A splat's contribution at a pixel centre: Gaussian weight, then NDC depth of the attribute
+/// pass and of the visibility pass (pushed back by ε).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Sample {
+    pub weight: f32,
+    pub depth: f32,
+    pub depth_pushed: f32,
+}
+
+/// The sample of splat `s` at pixel centre `(px, py)`, or `None` outside its footprint or the
+/// depth range.
+#[inline]
+pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<Sample> {
+    let dx = px - s.center.x;
+    let dy = py - s.center.y;
+    let gx = s.ainv.x * dx + s.ainv.y * dy;
+    let gy = s.ainv.z * dx + s.ainv.w * dy;
+    let den = 1.0 - (s.k.x * gx + s.k.y * gy);
+    let d2_scr = (dx * dx + dy * dy) * (1.0 / (PREFILTER_PX * PREFILTER_PX));
+    let mut d2 = d2_scr;
+    let mut w = s.wc;
+    if s.obj && den > 1e-6 {
+        let scale = s.wc / den;
+        let d2_obj = (gx * gx + gy * gy) * (scale * scale);
+        if d2_obj <= d2_scr {
+            d2 = d2_obj;
+            w = scale;
+        }
+    }
+    if d2 > 1.0 {
+        return None;
+    }
+    let depth = f.depth_a + f.depth_b / w;
+    if !(0.0..=1.0).contains(&depth) {
+        return None;
+    }
+    Some(Sample {
+        weight: ((-GAUSS_K * d2).exp() - EDGE_WEIGHT) * (1.0 / (1.0 - EDGE_WEIGHT)),
+        depth,
+        depth_pushed: (f.depth_a + f.depth_b / (w + s.eps)).min(1.0),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame() -> (Camera, FrameParams) {
+        let cam = Camera::framing([-1.0; 3], [1.0; 3], [0.0, 0.0, -1.0]);
+        let f = FrameParams::new(&cam, (640, 480), &Style::default());
+        (cam, f)
+    }
+
+    #[test]
+    fn centre_projects_where_the_camera_says_and_weighs_one() {
+        let (cam, f) = frame();
+        let s = Splat::disk([0.3, -0.2, 0.1], [0.0, 0.0, 1.0], 0.05, [255; 4]);
+        let st = setup(&s, &f).unwrap();
+        let want = cam.project(s.position, 640, 480).unwrap();
+        assert!((st.center - Vec2::from(want)).length() < 1e-3);
+        let at = eval(&st, &f, st.center.x, st.center.y).unwrap();
+        assert!((at.weight - 1.0).abs() < 1e-6);
+        assert!(at.depth_pushed > at.depth);
+    }
+
+    #[test]
+    fn weight_follows_the_ellipse_and_box_holds_it() {
+        let (cam, f) = frame();
+        // Major axis along x (0.2 m), minor along y (0.05 m), facing the camera.
+        let s = Splat::ellipse(
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+            0.2,
+            0.05,
+            [255; 4],
+        );
+        let st = setup(&s, &f).unwrap();
+        let c = Vec2::from(cam.project([0.0; 3], 640, 480).unwrap());
+        let half = Vec2::from(cam.project([0.1, 0.0, 0.0], 640, 480).unwrap()) - c;
+        let w = eval(&st, &f, c.x + half.x, c.y).unwrap().weight;
+        let want = ((-GAUSS_K * 0.25).exp() - EDGE_WEIGHT) / (1.0 - EDGE_WEIGHT);
+        assert!((w - want).abs() < 1e-3, "{w}");
+        assert!((EDGE_WEIGHT - (-GAUSS_K).exp()).abs() < 1e-7);
+        let side = Vec2::from(cam.project([0.0, 0.06, 0.0], 640, 480).unwrap());
+        assert!(
+            eval(&st, &f, side.x, side.y).is_none(),
+            "beyond the minor axis"
+        );
+        let tip = Vec2::from(cam.project([0.199, 0.0, 0.0], 640, 480).unwrap());
+        assert!(
+            tip.x <= st.bbox.z && st.bbox.z < tip.x + 1.0,
+            "{:?}",
+            st.bbox
+        );
+    }
+
+    #[test]
+    fn edge_on_and_tiny_splats_keep_a_pixel() {
+        let (_, f) = frame();
+        for s in [
+            Splat::disk([0.0; 3], [1.0, 0.0, 0.0], 0.1, [255; 4]),
+            Splat::disk([0.0; 3], [0.0, 0.0, 1.0], 1e-6, [255; 4]),
+        ] {
+            let st = setup(&s, &f).unwrap();
+            let hit = eval(&st, &f, st.center.x + 0.5, st.center.y + 0.5);
+            assert!(hit.is_some_and(|h| h.weight > 0.3), "{s:?}");
+        }
+    }
+}

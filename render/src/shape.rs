@@ -1,0 +1,201 @@
+//! The shape of a splat from its neighbours: a pure function the caller runs per point after its
+//! own k-nearest-neighbour search (this crate does no neighbour search).
+
+use glam::{DVec2, DVec3};
+
+/// Most neighbours [`splat_shape`] reads; further ones are ignored.
+pub const MAX_SHAPE_NEIGHBOURS: usize = 32;
+/// Smallest minor/major ratio [`splat_shape`] returns (no needles from collinear neighbours).
+pub const MIN_SPLAT_ASPECT: f32 = 0.6;
+/// The ellipse also reaches this many nearest neighbours (see [`splat_shape`]).
+pub const COVER_NEIGHBOURS: usize = 6;
+/// Factor on the ellipse through the farthest ring neighbour (see [`splat_shape`]).
+pub const SPLAT_OVERLAP: f32 = 1.0;
+
+/// Major axis and semi-axes of one splat, as [`splat_shape`] computes them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplatShape {
+    /// Unit tangent of the major axis (zero when the neighbours are isotropic).
+    pub axis: [f32; 3],
+    /// Major semi-axis in metres.
+    pub radius: f32,
+    /// Minor semi-axis in metres (≤ `radius`).
+    pub minor_radius: f32,
+}
+
+/// The elliptical splat of the point `position` with unit `normal`, from the positions of its
+/// nearest neighbours (any order; the point itself, if among them, is skipped; pass 10–16:
+/// anisotropic sampling needs the neighbours in the sparse direction to be among them).
+///
+/// The rule, in the tangent plane of `normal`:
+/// 1. the **ring**: neighbours taken nearest first, each kept unless a kept one lies inside or on
+///    the circle whose diameter joins it to the point (the Gabriel criterion): the
+///    neighbours across each gap, not the second and third ones along a dense row;
+/// 2. the **shape**: principal axes of the ring's offsets (their 2×2 second moment about the
+///    point): the major axis along the larger spread, aspect `sqrt(λ₂/λ₁)` clamped to
+///    [`MIN_SPLAT_ASPECT`]..1 (isotropic when exactly 1);
+/// 3. the **size**: the smallest ellipse of that shape containing every ring neighbour, times
+///    [`SPLAT_OVERLAP`] = 0.7. The midpoint to each ring neighbour is then at elliptical
+///    distance ≈ 0.71 from both splats (weight ≈ 0.27 each, see [`GAUSS_K`](crate::GAUSS_K)),
+///    so neighbouring splats overlap across every gap of the ring; larger factors cover more
+///    but make the tangent ellipses protrude further past silhouettes (a bulge of r²/2R on a
+///    surface of curvature radius R), which is what dominated the sparse-vs-dense error in
+///    the measurements (docs/BENCHMARKS.md, "Headless renderer").
+///
+/// `None` when the normal is zero or not finite, or no neighbour is off the point in the
+/// tangent plane.
+pub fn splat_shape(
+    position: [f32; 3],
+    normal: [f32; 3],
+    neighbours: &[[f32; 3]],
+) -> Option<SplatShape> {
+    let p = DVec3::from(position.map(f64::from));
+    let n = DVec3::from(normal.map(f64::from)).try_normalize()?;
+    let (t1, t2) = n.any_orthonormal_pair();
+    let mut offsets = [DVec2::ZERO; MAX_SHAPE_NEIGHBOURS];
+    let mut count = 0;
+    for q in neighbours.iter().take(MAX_SHAPE_NEIGHBOURS) {
+        let d = DVec3::from(q.map(f64::from)) - p;
+        let u = DVec2::new(d.dot(t1), d.dot(t2));
+        if u.is_finite() && u.length_squared() > 0.0 {
+            offsets[count] = u;
+            count += 1;
+        }
+    }
+    let offsets = &mut offsets[..count];
+    offsets.sort_by(|a, b| a.length_squared().total_cmp(&b.length_squared()));
+    let mut nearest = [DVec2::ZERO; COVER_NEIGHBOURS];
+    let n_nearest = offsets.len().min(COVER_NEIGHBOURS);
+    nearest[..n_nearest].copy_from_slice(&offsets[..n_nearest]);
+    // 1. The Gabriel ring, compacted to the front of `offsets`.
+    let mut ring = 0;
+    for j in 0..offsets.len() {
+        let q = offsets[j];
+        let hidden = offsets[..ring].iter().any(|&k| k.dot(k - q) <= 0.0);
+        if !hidden {
+            offsets[ring] = q;
+            ring += 1;
+        }
+    }
+    let ring = &offsets[..ring];
+    if ring.is_empty() {
+        return None;
+    }
+    // 2. Principal axes of the second moment about the point.
+    let (mut cxx, mut cxy, mut cyy) = (0.0, 0.0, 0.0);
+    for u in ring {
+        cxx += u.x * u.x;
+        cxy += u.x * u.y;
+        cyy += u.y * u.y;
+    }
+    let half_diff = 0.5 * (cxx - cyy);
+    let root = half_diff.hypot(cxy);
+    let mean = 0.5 * (cxx + cyy);
+    let (l1, l2) = (mean + root, (mean - root).max(0.0));
+    let isotropic = root <= 1e-12 * mean;
+    let angle = 0.5 * cxy.atan2(half_diff);
+    let e1 = DVec2::new(angle.cos(), angle.sin());
+    let e2 = e1.perp();
+    let aspect = if isotropic {
+        1.0
+    } else {
+        (l2 / l1).sqrt().clamp(f64::from(MIN_SPLAT_ASPECT), 1.0)
+    };
+    // 3. The smallest ellipse of that shape holding the ring.
+    let reach = ring
+        .iter()
+        .chain(&nearest[..n_nearest])
+        .map(|u| u.dot(e1).hypot(u.dot(e2) / aspect))
+        .fold(0.0, f64::max);
+    let radius = f64::from(SPLAT_OVERLAP) * reach;
+    let axis = if isotropic {
+        DVec3::ZERO
+    } else {
+        e1.x * t1 + e1.y * t2
+    };
+    Some(SplatShape {
+        axis: axis.as_vec3().to_array(),
+        radius: radius as f32,
+        minor_radius: (radius * aspect) as f32,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A grid in the z = 0 plane with spacings `hx`, `hy`, its point (0, 0) and the `k` nearest.
+    fn grid_neighbours(hx: f32, hy: f32, k: usize) -> Vec<[f32; 3]> {
+        let mut pts: Vec<[f32; 3]> = (-6..=6)
+            .flat_map(|i| (-6..=6).map(move |j| [i as f32 * hx, j as f32 * hy, 0.0]))
+            .filter(|p| p != &[0.0; 3])
+            .collect();
+        pts.sort_by(|a, b| (a[0].hypot(a[1])).total_cmp(&b[0].hypot(b[1])));
+        pts.truncate(k);
+        pts
+    }
+
+    /// Whether the splat's ellipse (in the z = 0 plane) holds point `q`.
+    fn holds(s: &SplatShape, q: [f32; 3]) -> bool {
+        let a = glam::Vec2::new(s.axis[0], s.axis[1]);
+        let u = glam::Vec2::new(q[0], q[1]);
+        (u.dot(a) / s.radius).hypot(u.perp_dot(a) / s.minor_radius) <= 1.0 + 1e-5
+    }
+
+    #[test]
+    fn anisotropic_grid_gives_an_ellipse_along_the_sparse_direction() {
+        // 4× denser along y: the 8 nearest are all on the y column, but the ring reaches x.
+        let nb = grid_neighbours(1.0, 0.25, 16);
+        let s = splat_shape([0.0; 3], [0.0, 0.0, 1.0], &nb).unwrap();
+        assert!(s.axis[0].abs() > 0.99, "major axis along x: {s:?}");
+        assert!(
+            (s.minor_radius / s.radius - MIN_SPLAT_ASPECT).abs() < 1e-5,
+            "aspect clamped: {s:?}"
+        );
+        // The ring and the nearest, scaled by the overlap factor, are inside.
+        for q in [[1.0, 0.0, 0.0], [0.0, 0.25, 0.0], [0.0, 0.75, 0.0]] {
+            assert!(holds(&s, q.map(|c| c * SPLAT_OVERLAP)), "{q:?} {s:?}");
+        }
+        let nb = grid_neighbours(1.0, 0.7, 16);
+        let s = splat_shape([0.0; 3], [0.0, 0.0, 1.0], &nb).unwrap();
+        assert!(s.axis[0].abs() > 0.99, "{s:?}");
+        assert!(
+            (s.minor_radius / s.radius - 0.7).abs() < 0.05,
+            "aspect follows the spacing: {s:?}"
+        );
+    }
+
+    #[test]
+    fn square_grid_is_round_and_reaches_its_neighbours() {
+        let nb = grid_neighbours(0.1, 0.1, 12);
+        let s = splat_shape([0.0; 3], [0.0, 0.0, 1.0], &nb).unwrap();
+        assert!((s.radius - s.minor_radius).abs() < 1e-6, "{s:?}");
+        let k = SPLAT_OVERLAP;
+        assert!(s.radius >= 0.1 * k - 1e-6 && s.radius <= 0.1 * k * 2f32.sqrt() + 1e-6);
+    }
+
+    #[test]
+    fn tilted_plane_axis_is_tangent() {
+        let n = glam::Vec3::new(1.0, 1.0, 1.0).normalize();
+        let (a, b) = n.any_orthonormal_pair();
+        let nb: Vec<[f32; 3]> = grid_neighbours(1.0, 0.5, 16)
+            .iter()
+            .map(|q| (q[0] * a + q[1] * b + glam::Vec3::splat(2.0)).to_array())
+            .collect();
+        let s = splat_shape([2.0; 3], n.to_array(), &nb).unwrap();
+        let axis = glam::Vec3::from(s.axis);
+        assert!(axis.dot(n).abs() < 1e-5 && (axis.length() - 1.0).abs() < 1e-5);
+        assert!(axis.dot(a).abs() > 0.99, "{s:?}");
+    }
+
+    #[test]
+    fn degenerate_inputs_are_none() {
+        assert_eq!(splat_shape([0.0; 3], [0.0; 3], &[[1.0, 0.0, 0.0]; 3]), None);
+        assert_eq!(
+            splat_shape([0.0; 3], [0.0, 0.0, 1.0], &[[0.0; 3], [0.0, 0.0, 1.0]]),
+            None
+        );
+        let one = splat_shape([0.0; 3], [0.0, 0.0, 1.0], &[[1.0, 0.0, 0.0]]).unwrap();
+        assert!((one.radius - SPLAT_OVERLAP).abs() < 1e-6);
+    }
+}
