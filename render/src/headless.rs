@@ -62,9 +62,11 @@ impl std::fmt::Debug for HeadlessRenderer {
 }
 
 impl HeadlessRenderer {
-    /// A renderer of `width × height` frames. `Auto` (after [`BACKEND_ENV`]) tries the GPU and
-    /// falls back to software when no Vulkan adapter or device is available
-    /// ([`HeadlessRenderer::fallback_reason`] says why); `Gpu` returns that error instead.
+    /// A renderer of `width × height` frames. `Auto` (after [`BACKEND_ENV`]) takes a GPU; on a
+    /// CPU implementation of Vulkan (lavapipe) it takes the software renderer, which draws
+    /// the same splats faster there; and it falls back to software when no Vulkan adapter or
+    /// device is available ([`HeadlessRenderer::fallback_reason`] says why, with how to get
+    /// the fast path). `Gpu` returns that error instead.
     pub fn new(width: u32, height: u32, choice: BackendChoice) -> Result<Self, RenderError> {
         let choice = match choice {
             BackendChoice::Auto => match std::env::var(BACKEND_ENV) {
@@ -86,6 +88,7 @@ impl HeadlessRenderer {
                 fallback: None,
             }),
             BackendChoice::Auto => match Renderer::headless(width, height) {
+                Ok(r) if r.is_cpu_adapter() => software(None),
                 Ok(r) => Ok(Self {
                     inner: Inner::Gpu(Box::new(r)),
                     fallback: None,

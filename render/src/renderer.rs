@@ -238,6 +238,14 @@ impl Renderer {
         describe(&self.adapter)
     }
 
+    /// Whether the adapter is a CPU implementation of Vulkan (Mesa's lavapipe/llvmpipe): there
+    /// the [`SoftwareRenderer`](crate::SoftwareRenderer) draws the same frames faster
+    /// (docs/BENCHMARKS.md, "Headless renderer"), so [`HeadlessRenderer`](crate::HeadlessRenderer)
+    /// prefers it.
+    pub fn is_cpu_adapter(&self) -> bool {
+        self.adapter.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// The device, for a caller that creates its own targets (a window's surface).
     pub fn device(&self) -> &wgpu::Device {
         &self.device

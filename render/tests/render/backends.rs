@@ -137,6 +137,22 @@ fn facade_renders_the_same_frame_on_both_backends() {
     assert!(p >= 35.0, "PSNR {p:.1} dB");
 }
 
+#[test]
+fn auto_takes_a_gpu_but_prefers_software_over_a_cpu_vulkan_driver() {
+    if std::env::var_os(render::BACKEND_ENV).is_some() {
+        return; // the user forced a backend for this run
+    }
+    let gpu = render::Renderer::headless(64, 48).unwrap_or_else(|e| panic!("{e}"));
+    let auto = HeadlessRenderer::new(64, 48, BackendChoice::Auto).unwrap();
+    let expected = if gpu.is_cpu_adapter() {
+        Backend::Software
+    } else {
+        Backend::Gpu
+    };
+    assert_eq!(auto.backend(), expected, "{}", gpu.adapter_info());
+    assert_eq!(auto.fallback_reason(), None, "a choice, not a fallback");
+}
+
 const CHILD: &str = "RENDER_TEST_FALLBACK_CHILD";
 
 /// Runs itself in a child process whose Vulkan loader finds no driver.

@@ -6,4 +6,5 @@ mod deploy;
 mod latency;
 mod live;
 mod server_process;
+mod software;
 mod window;

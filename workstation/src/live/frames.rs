@@ -1,6 +1,8 @@
 //! The rendering thread: the newest [`RenderSnapshot`] and the newest cursor, force and contact
-//! → one PNG frame every interval, with the `render` crate (headless wgpu; lavapipe without a
-//! GPU). The interactive window reuses the same renderer.
+//! → one PNG frame every interval, with the `render` crate's EWA surface splatting
+//! ([`HeadlessRenderer`]: a GPU through wgpu, or the same passes on the CPU where the only
+//! Vulkan driver is a software one, or none is installed). The window draws with the same
+//! splats and overlays.
 //!
 //! Points become lit surfel splats oriented by their normals, each of a radius from its local
 //! spacing (the distance to its 6th nearest neighbour, recomputed only when the point set
@@ -13,7 +15,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use render::{Camera, Ellipsoid, Image, Overlay, Renderer, Splat};
+use render::{BackendChoice, Camera, Ellipsoid, HeadlessRenderer, Image, Overlay, Splat};
 use sim_core::knn::PointIndex;
 
 use super::scene_file::{RenderSpec, ToolKind};
@@ -120,7 +122,7 @@ pub fn overlay(snap: &RenderSnapshot, shared: &Shared) -> Overlay {
 /// Turns snapshots into frames; keeps the camera fixed on the first snapshot's framing.
 #[derive(Debug)]
 pub struct FrameMaker {
-    renderer: Renderer,
+    renderer: HeadlessRenderer,
     spec: RenderSpec,
     camera: Option<Camera>,
     splats: SplatCache,
@@ -128,9 +130,20 @@ pub struct FrameMaker {
 }
 
 impl FrameMaker {
-    /// A headless renderer of the scene's size.
+    /// A headless renderer of the scene's size on the backend `HAPTIC_RENDER` names
+    /// (`auto`, the default: a GPU; the CPU splatter on a software Vulkan driver or without
+    /// any, said once with how to get the fast path).
     pub fn new(spec: &RenderSpec) -> anyhow::Result<Self> {
-        let renderer = Renderer::headless(spec.width, spec.height)?;
+        Self::with_backend(spec, BackendChoice::Auto)
+    }
+
+    /// As [`FrameMaker::new`] on the backend `choice`.
+    pub fn with_backend(spec: &RenderSpec, choice: BackendChoice) -> anyhow::Result<Self> {
+        let renderer = HeadlessRenderer::new(spec.width, spec.height, choice)?;
+        match renderer.fallback_reason() {
+            Some(why) => tracing::warn!("frames are drawn on the CPU: {why}"),
+            None => tracing::info!("frames are drawn by {}", renderer.describe()),
+        }
         Ok(Self {
             renderer,
             spec: *spec,

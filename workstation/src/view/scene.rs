@@ -1,6 +1,10 @@
 //! The scene's texture: the `render` crate's renderer on eframe's wgpu device drawing into a
 //! texture that egui shows as an image, so one renderer serves the window, the PNG frames and
 //! `render`; and the window's pixels saved as a PNG (screenshots).
+//!
+//! On a CPU implementation of Vulkan (Mesa's lavapipe, a machine without a GPU) the same
+//! splatting runs on the CPU ([`render::SoftwareRenderer`], faster there than lavapipe) and
+//! the frame is uploaded into the texture instead.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -13,8 +17,15 @@ use eframe::egui_wgpu;
 /// The scene's texture on eframe's device, and the renderer that draws into it.
 pub(super) struct Gpu {
     renderer: render::Renderer,
+    /// On a CPU Vulkan adapter: the CPU splatter and its frame, uploaded into `texture`.
+    software: Option<(render::SoftwareRenderer, render::Image)>,
     egui: Arc<egui::mutex::RwLock<egui_wgpu::Renderer>>,
-    color: Option<(wgpu::TextureView, wgpu::TextureView, (u32, u32))>,
+    color: Option<(
+        wgpu::Texture,
+        wgpu::TextureView,
+        wgpu::TextureView,
+        (u32, u32),
+    )>,
     texture: Option<egui::TextureId>,
 }
 
@@ -26,8 +37,22 @@ impl Gpu {
             state.adapter.get_info(),
             render::Renderer::HEADLESS_FORMAT,
         );
+        let software = renderer
+            .is_cpu_adapter()
+            .then(|| render::SoftwareRenderer::new(1, 1).ok())
+            .flatten()
+            .map(|r| (r, render::Image::default()));
+        tracing::info!(
+            "the window draws with {}",
+            if software.is_some() {
+                "the CPU splatter (the Vulkan adapter is a CPU one)".to_owned()
+            } else {
+                renderer.adapter_info()
+            }
+        );
         Self {
             renderer,
+            software,
             egui: Arc::clone(&state.renderer),
             color: None,
             texture: None,
@@ -36,7 +61,7 @@ impl Gpu {
 
     /// The texture for a view of `size` pixels (recreated when the size changes).
     fn target(&mut self, size: (u32, u32)) -> egui::TextureId {
-        if self.color.as_ref().is_none_or(|c| c.2 != size) {
+        if self.color.as_ref().is_none_or(|c| c.3 != size) {
             let device = self.renderer.device();
             let texture = device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("window scene"),
@@ -50,7 +75,8 @@ impl Gpu {
                 dimension: wgpu::TextureDimension::D2,
                 format: render::Renderer::HEADLESS_FORMAT,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_DST,
                 view_formats: &[wgpu::TextureFormat::Rgba8Unorm],
             });
             // The renderer writes sRGB-encoded bytes through the sRGB view; egui blends in
@@ -77,7 +103,7 @@ impl Gpu {
                     ));
                 }
             }
-            self.color = Some((view, depth, size));
+            self.color = Some((texture, view, depth, size));
         }
         self.texture.expect("registered above")
     }
@@ -90,7 +116,27 @@ impl Gpu {
         camera: &render::Camera,
     ) -> anyhow::Result<egui::TextureId> {
         let id = self.target(size);
-        let (color, depth, _) = self.color.as_ref().expect("made by target");
+        let (texture, color, depth, _) = self.color.as_ref().expect("made by target");
+        if let Some((software, image)) = &mut self.software {
+            software.resize(size.0, size.1)?;
+            software.set_style(*self.renderer.style());
+            software.render_into(splats, overlay, camera, image)?;
+            self.renderer.queue().write_texture(
+                texture.as_image_copy(),
+                &image.rgba,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(4 * size.0),
+                    rows_per_image: Some(size.1),
+                },
+                wgpu::Extent3d {
+                    width: size.0,
+                    height: size.1,
+                    depth_or_array_layers: 1,
+                },
+            );
+            return Ok(id);
+        }
         let mut encoder =
             self.renderer
                 .device()
