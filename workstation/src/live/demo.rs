@@ -113,6 +113,10 @@ pub fn command(args: &DemoArgs) -> anyhow::Result<()> {
     if args.no_window || !view::display_available() {
         return run(args).map(|_| ());
     }
+    if let Err(e) = view::window_gpu() {
+        println!("demo: no window ({e:#}); running headless");
+        return run(args).map(|_| ());
+    }
     let (link_tx, link_rx) = std::sync::mpsc::channel();
     let cancelled = Arc::new(AtomicBool::new(false));
     let log: Arc<Mutex<Vec<String>>> = Arc::default();

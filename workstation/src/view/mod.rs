@@ -124,6 +124,17 @@ pub fn display_available() -> bool {
             && std::env::var_os("WAYLAND_DISPLAY").is_some_and(|d| !d.is_empty()))
 }
 
+/// Whether the window can draw: it needs a Vulkan adapter, a GPU or Mesa's software driver
+/// (lavapipe). The error says which package to install.
+pub fn window_gpu() -> anyhow::Result<()> {
+    render::Renderer::headless(1, 1).map(drop).map_err(|e| {
+        anyhow::anyhow!(
+            "the window needs a GPU driver or Mesa's software Vulkan driver: {e}. Without a \
+             window, `workstation demo --no-window`, `run --frames` and `render` draw on the CPU"
+        )
+    })
+}
+
 /// What the window needs of a running session.
 #[derive(Debug, Clone)]
 pub struct Link {
@@ -231,6 +242,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         "no display: `workstation view` opens a window (set DISPLAY, or run it under `xvfb-run`); \
          for pictures without a window use `workstation render` or `workstation run --frames`"
     );
+    window_gpu()?;
     let server = NetConfig::from_flags(args.server, args.cert.as_deref(), args.transport)?;
     let starter = Starter {
         server,
