@@ -26,7 +26,8 @@ enum Command {
     /// when a display is present (--no-window keeps it headless).
     Demo(workstation::live::demo::DemoArgs),
     /// Open the interactive window on a scene: splat view, control panel, live plots. Without
-    /// --server the mouse is the device (left button = stylus button, wheel = depth).
+    /// --server the mouse is the stylus on the surface under it (left button presses; rope:
+    /// drag pulls out, Shift + drag pushes in; wheel: the tool's depth; Ctrl + wheel zooms).
     View(workstation::view::ViewArgs),
     /// Run the workstation against a haptics server: network, force-mapping, simulation and
     /// rendering threads on a scene; saves the model on exit (Ctrl-C or --seconds).
@@ -76,7 +77,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Demo(args) => workstation::view::demo(&args),
+        Command::Demo(args) => workstation::live::demo::command(&args),
         Command::View(args) => workstation::view::run(&args),
         Command::Run(args) => workstation::live::run::run(&args),
         Command::HandPath(args) => workstation::live::run::hand_path_command(&args),

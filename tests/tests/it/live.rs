@@ -11,9 +11,9 @@ use glam::{DVec3, Vec3};
 use haptics_server::device::fake::{FakeDevice, FakeMonitor, FakeParams, HandPath};
 use haptics_server::server::{Server, ServerOptions, TransportKind};
 use workstation::live::Workstation;
-use workstation::live::demo::{drive_phases, hand_path};
 use workstation::live::frames::FrameMaker;
 use workstation::live::net::NetConfig;
+use workstation::live::phases::{drive_phases, hand_path};
 use workstation::live::scene_file::SceneFile;
 use workstation::live::shared::Shared;
 

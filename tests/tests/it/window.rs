@@ -1,7 +1,8 @@
 //! The workstation window as a person uses it, on a virtual X server (Xvfb, installed by
 //! `.ci/setup` with xdotool): it opens on the demo scene and shows the object and the panel
 //! (read from the window's own pixels); a click on a tool button selects the tool in the
-//! simulation and the probe appears under the mouse; keys save a screenshot and quit.
+//! simulation and the probe appears under the mouse; keys save a screenshot and quit; the mouse
+//! as the stylus raises a rope bump and paints a stroke, which the export (Ctrl+E) keeps.
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -390,4 +391,238 @@ fn the_demo_opens_the_window_when_a_display_is_present_and_it_stays_on_the_resul
     wait_exit(&mut child, dir.path(), Duration::from_secs(30));
     let log = std::fs::read_to_string(dir.path().join("view.log")).unwrap();
     assert!(log.contains("demo: done"), "{log}");
+}
+
+/// The points of a binary PLY as `final.ply` is written (`double x y z`, `float nx ny nz`,
+/// `uchar red green blue`).
+fn ply_points(path: &Path) -> Vec<([f64; 3], [u8; 3])> {
+    let bytes = std::fs::read(path).unwrap();
+    let end = b"end_header\n";
+    let body = bytes
+        .windows(end.len())
+        .position(|w| w == end)
+        .expect("a PLY header")
+        + end.len();
+    let header = std::str::from_utf8(&bytes[..body]).unwrap();
+    assert!(header.contains("binary_little_endian"), "{header}");
+    assert!(header.contains("property uchar red"), "{header}");
+    let n: usize = header
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .and_then(|n| n.trim().parse().ok())
+        .expect("a vertex count");
+    let stride = 3 * 8 + 3 * 4 + 3;
+    assert_eq!(bytes.len() - body, n * stride, "{} vertices", n);
+    bytes[body..]
+        .chunks(stride)
+        .map(|v| {
+            let f = |i: usize| f64::from_le_bytes(v[8 * i..8 * i + 8].try_into().unwrap());
+            ([f(0), f(1), f(2)], [v[36], v[37], v[38]])
+        })
+        .collect()
+}
+
+/// The newest `--state` once `ready` holds for it.
+fn wait_state(
+    path: &Path,
+    child: &mut Child,
+    what: &str,
+    ready: impl Fn(&serde_json::Value) -> bool,
+) -> serde_json::Value {
+    let t0 = Instant::now();
+    loop {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "workstation view exited while waiting for {what}"
+        );
+        if let Some(s) = state(path)
+            && ready(&s)
+        {
+            return s;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(90),
+            "waited 90 s for {what}; the state: {:?}",
+            state(path)
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+fn xy(v: &serde_json::Value) -> Option<(f64, f64)> {
+    let a = v.as_array()?;
+    Some((a.first()?.as_f64()?, a.get(1)?.as_f64()?))
+}
+
+fn xyz(v: &serde_json::Value) -> Option<[f64; 3]> {
+    let a = v.as_array()?;
+    Some([
+        a.first()?.as_f64()?,
+        a.get(1)?.as_f64()?,
+        a.get(2)?.as_f64()?,
+    ])
+}
+
+/// Drag with the left button from `from` to `to` in 5-pixel steps, holding `hold` at the end.
+fn drag(x: &Xvfb, from: (f64, f64), to: (f64, f64), hold: Duration) {
+    let at = |p: (f64, f64)| [format!("{:.0}", p.0), format!("{:.0}", p.1)];
+    let [fx, fy] = at(from);
+    x.xdotool(&["mousemove", &fx, &fy]);
+    std::thread::sleep(Duration::from_millis(700));
+    x.xdotool(&["mousedown", "1"]);
+    std::thread::sleep(Duration::from_millis(500));
+    let steps = ((to.0 - from.0).hypot(to.1 - from.1) / 5.0).ceil().max(1.0) as usize;
+    for k in 1..=steps {
+        let t = k as f64 / steps as f64;
+        let [px, py] = at((from.0 + t * (to.0 - from.0), from.1 + t * (to.1 - from.1)));
+        x.xdotool(&["mousemove", &px, &py]);
+        std::thread::sleep(Duration::from_millis(120));
+    }
+    std::thread::sleep(hold);
+    x.xdotool(&["mouseup", "1"]);
+    std::thread::sleep(Duration::from_millis(800));
+}
+
+#[test]
+fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let state_file = dir.path().join("state.json");
+    let mut child = view(
+        &x,
+        dir.path(),
+        &[
+            "--frames",
+            "1000000",
+            "--state",
+            state_file.to_str().unwrap(),
+        ],
+    );
+    let s = wait_state(&state_file, &mut child, "the window", |s| {
+        s.get("frames").and_then(|f| f.as_f64()).unwrap_or(0.0) >= 3.0
+            && s.get("region_centre").and_then(xy).is_some()
+            && s.get("object_centre").and_then(xy).is_some()
+    });
+    let region = s.get("region_centre").and_then(xy).unwrap();
+    let object = s.get("object_centre").and_then(xy).unwrap();
+    let focus = || {
+        x.xdotool(&[
+            "search",
+            "--name",
+            "workstation view",
+            "windowfocus",
+            "--sync",
+        ])
+    };
+    let tool = |name: &'static str| {
+        move |s: &serde_json::Value| s.get("tool").and_then(|t| t.as_str()) == Some(name)
+    };
+
+    // The rope: grab the surface under the region's centre, drag 80 pixels up, let go.
+    focus();
+    x.xdotool(&["key", "2"]);
+    wait_state(&state_file, &mut child, "the rope selected", tool("rope"));
+    x.xdotool(&[
+        "mousemove",
+        &format!("{:.0}", region.0),
+        &format!("{:.0}", region.1),
+    ]);
+    let s = wait_state(
+        &state_file,
+        &mut child,
+        "the surface under the mouse",
+        |s| {
+            s.pointer("/mouse/pointer")
+                .and_then(xy)
+                .is_some_and(|p| (p.0 - region.0).abs() < 1.5 && (p.1 - region.1).abs() < 1.5)
+                && s.pointer("/mouse/hit").and_then(xyz).is_some()
+        },
+    );
+    let grab = s.pointer("/mouse/hit").and_then(xyz).unwrap();
+    let r = grab.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(
+        (r - 0.05).abs() < 1e-3,
+        "the cursor lies on the 5 cm ball: |hit| = {r}"
+    );
+    drag(
+        &x,
+        region,
+        (region.0, region.1 - 80.0),
+        Duration::from_millis(1500),
+    );
+
+    // Paint: a stroke across the ball's front.
+    focus();
+    x.xdotool(&["key", "4"]);
+    wait_state(&state_file, &mut child, "the brush selected", tool("paint"));
+    drag(
+        &x,
+        (object.0 - 80.0, object.1 - 20.0),
+        (object.0 + 100.0, object.1 - 20.0),
+        Duration::from_millis(300),
+    );
+
+    // Export (Ctrl+E) and read the points back.
+    focus();
+    x.xdotool(&["key", "ctrl+e"]);
+    let out = dir.path().join("out");
+    let t0 = Instant::now();
+    let export = loop {
+        let found = std::fs::read_dir(&out).ok().and_then(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path())).find(|p| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with("export_"))
+                    && p.join("final_mesh.stl").exists() // written after final.ply
+            })
+        });
+        if let Some(p) = found {
+            break p;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "Ctrl+E exported nothing; the state: {:?}",
+            state(&state_file)
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let points = ply_points(&export.join("final.ply"));
+    // The unsculpted ball is a 5 cm sphere at the origin: the bump is the largest outward
+    // displacement of the points within 2 cm of the grabbed point. (Away from the bump and
+    // the knob at (−5.5, 0, 0) cm the ball stays a 5 cm sphere: printed for comparison.)
+    let dist = |p: &[f64; 3], q: &[f64; 3]| {
+        p.iter()
+            .zip(q)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let bump = points
+        .iter()
+        .filter(|(p, _)| dist(p, &grab) < 0.02)
+        .map(|(p, _)| dist(p, &[0.0; 3]) - 0.05)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let elsewhere = points
+        .iter()
+        .filter(|(p, _)| dist(p, &grab) > 0.04 && dist(p, &[-0.055, 0.0, 0.0]) > 0.025)
+        .map(|(p, _)| (dist(p, &[0.0; 3]) - 0.05).abs())
+        .fold(0.0, f64::max);
+    let painted = points
+        .iter()
+        .filter(|(_, [r, g, b])| *r > g.saturating_add(60) && *r > b.saturating_add(60))
+        .count();
+    println!(
+        "mouse rope bump {:.2} mm at {grab:?} (elsewhere the ball is within {:.2} mm of 5 cm); {painted} points painted of {}",
+        bump * 1e3,
+        elsewhere * 1e3,
+        points.len()
+    );
+    assert!(
+        bump >= 3e-3,
+        "the rope drag raised the surface by {:.2} mm",
+        bump * 1e3
+    );
+    assert!(painted >= 50, "the stroke painted {painted} points");
+    focus();
+    x.xdotool(&["key", "ctrl+q"]);
+    wait_exit(&mut child, dir.path(), Duration::from_secs(30));
 }

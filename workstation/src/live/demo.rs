@@ -6,6 +6,10 @@
 //! drives the session's phases ([`drive_phases`]: each stroke ends when the button lets go, each
 //! operation runs on the simulation thread); prints a line per phase; writes `summary.json`,
 //! `final.ply`, `final_mesh.{ply,obj,stl}` and PNG frames into `--out`.
+//!
+//! [`command`] shows it in the window ([`crate::view`]) when a display is present: the demo
+//! drives the session on a thread, the window is its rendering thread. The window knows
+//! nothing of the demo; the demo hands it a [`Link`].
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -14,20 +18,17 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use haptics_client::TransportKind;
 use serde::Serialize;
 
 use super::net::NetConfig;
-use super::scene_file::SceneFile;
+use super::phases::{PhaseReport, drive_phases, hand_path, write_hand_path};
+use super::scene_file::{DEMO_IMAGE, DEMO_SCENE, SceneFile};
 use super::shared::PercentilesUs;
-use super::sim::SimReport;
-use super::{LiveStats, Workstation, save};
+use super::{CursorSource, LiveStats, Workstation, save};
+use crate::view::{self, Exit, Link};
 
-/// The built-in demo scene (`examples/live/demo.toml`).
-pub const DEMO_SCENE: &str = include_str!("../../../examples/live/demo.toml");
-/// The image it embosses.
-pub const DEMO_IMAGE: &[u8] = include_bytes!("../../../examples/live/ring.png");
 /// Seconds the hand rests before the first stroke (the session comes up meanwhile).
 pub const LEAD_IN_S: f64 = 1.5;
 
@@ -63,24 +64,11 @@ pub struct DemoArgs {
 #[derive(Debug, Default)]
 pub struct DemoHooks {
     /// Receives the session's link once the workstation has started.
-    pub started: Option<std::sync::mpsc::Sender<crate::view::Link>>,
+    pub started: Option<std::sync::mpsc::Sender<Link>>,
     /// Set to stop the demo between phases (the window was closed).
     pub cancelled: Arc<AtomicBool>,
     /// Receives every progress line too.
     pub log: Option<Arc<Mutex<Vec<String>>>>,
-}
-
-/// What one phase did.
-#[derive(Debug, Clone, Serialize)]
-pub struct PhaseReport {
-    /// As in the scene.
-    pub name: String,
-    /// `stroke:<tool>` or `op:<kind>`.
-    pub kind: String,
-    /// What it did.
-    pub summary: String,
-    /// Wall time (s).
-    pub seconds: f64,
 }
 
 /// `summary.json`.
@@ -115,129 +103,56 @@ pub struct Summary {
     pub stats: LiveStats,
 }
 
-/// The fake hand's path for the scene's strokes, in the device frame: rest lifted above the
-/// first stroke for `lead_in_s`, then per stroke: travel (button up, via points lifted away
-/// from the region's centre so the hand does not cut through the object), press at the first
-/// waypoint, follow the waypoints over `seconds`, release, rest. Ends with a long rest (the
-/// server loops recorded paths).
-pub fn hand_path(scene: &SceneFile, lead_in_s: f64) -> Vec<(f32, Vec3, u16)> {
-    let t = scene.device.transform();
-    let (lo, hi) = (DVec3::from(scene.region.min), DVec3::from(scene.region.max));
-    let centre = 0.5 * (lo + hi);
-    let lift = |p: DVec3| centre + (p - centre) * 1.6;
-    let dev = |p: DVec3| t.point_to_device(p).as_vec3();
-    let strokes: Vec<_> = scene
-        .phase
-        .iter()
-        .filter_map(|p| p.stroke.as_ref())
-        .collect();
-    let mut out = Vec::new();
-    let Some(first) = strokes.first() else {
-        return vec![(0.0, dev(lift(lo.max(hi))), 0)];
+/// `workstation demo`: with the window when a display is present (and not `--no-window`): the
+/// demo drives the session on a thread, the window shows it on this one and stays open on the
+/// result until closed. Closing the window early stops the demo.
+pub fn command(args: &DemoArgs) -> anyhow::Result<()> {
+    if args.no_window || !view::display_available() {
+        return run(args).map(|_| ());
+    }
+    let (link_tx, link_rx) = std::sync::mpsc::channel();
+    let cancelled = Arc::new(AtomicBool::new(false));
+    let log: Arc<Mutex<Vec<String>>> = Arc::default();
+    let hooks = DemoHooks {
+        started: Some(link_tx),
+        cancelled: Arc::clone(&cancelled),
+        log: Some(Arc::clone(&log)),
     };
-    let mut time = 0.0f64;
-    let mut at = lift(DVec3::from(first.path[0]));
-    let mut push = |time: f64, p: DVec3, b: u16| out.push((time as f32, dev(p), b));
-    push(0.0, at, 0);
-    time += lead_in_s;
-    push(time, at, 0);
-    for s in strokes {
-        let start = DVec3::from(s.path[0]);
-        time += 0.5 * s.travel_s;
-        push(time, lift(start), 0);
-        time += 0.5 * s.travel_s;
-        push(time, start, 0);
-        time += 0.1;
-        push(time, start, 1);
-        let n = s.path.len();
-        let dt = if n > 1 {
-            s.seconds / (n - 1) as f64
-        } else {
-            s.seconds
-        };
-        for (k, p) in s.path.iter().enumerate().skip(usize::from(n > 1)) {
-            time += dt;
-            // Held until the next point: the last waypoint releases.
-            push(time, DVec3::from(*p), u16::from(k + 1 < n));
+    let demo_args = args.clone();
+    let worker = std::thread::Builder::new()
+        .name("demo".into())
+        .spawn(move || run_with(&demo_args, hooks))
+        .context("starting the demo thread")?;
+    let shown = match link_rx.recv() {
+        Ok(mut link) => {
+            link.log = log;
+            view::open(
+                link,
+                None,
+                args.out.clone(),
+                Exit::default(),
+                (1280, 800),
+                "workstation demo",
+            )
         }
-        let end = DVec3::from(s.path[n - 1]);
-        if n == 1 {
-            time += 0.05;
-            push(time, end, 0);
+        Err(_) => Ok(()), // the demo failed before its session started: its error follows
+    };
+    cancelled.store(true, Ordering::Relaxed);
+    let result = worker
+        .join()
+        .map_err(|_| anyhow::anyhow!("the demo thread panicked"))?;
+    shown?;
+    match result {
+        Ok(_) => Ok(()),
+        Err(e) if e.to_string().starts_with("interrupted") => {
+            println!("demo: the window was closed before the end");
+            Ok(())
         }
-        time += s.rest_s.max(0.05);
-        at = lift(end);
-        push(time, at, 0);
+        Err(e) => Err(e),
     }
-    push(time + 1e5, at, 0);
-    out
 }
 
-/// Write `hand_path` as the server's path file (`t x y z buttons` per line).
-pub fn write_hand_path(path: &Path, points: &[(f32, Vec3, u16)]) -> anyhow::Result<()> {
-    let mut text = String::from("# t_s x y z buttons (workstation hand-path)\n");
-    for (t, p, b) in points {
-        text.push_str(&format!("{t} {} {} {} {b}\n", p.x, p.y, p.z));
-    }
-    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
-}
-
-/// Run the scene's phases in order: the strokes' tools were queued for the button presses when
-/// the simulation started ([`super::sim::SimCore::new`]), each stroke phase ends when the
-/// simulation reports its release, each operation runs on the simulation thread. `progress` is
-/// called as each phase ends.
-pub fn drive_phases(
-    ws: &Workstation,
-    scene: &SceneFile,
-    deadline: Instant,
-    cancelled: impl Fn() -> bool,
-    mut progress: impl FnMut(usize, &PhaseReport),
-) -> anyhow::Result<Vec<PhaseReport>> {
-    let mut reports = Vec::new();
-    let mut t0 = Instant::now();
-    for (i, phase) in scene.phase.iter().enumerate() {
-        let report = if let Some(stroke) = &phase.stroke {
-            let done = loop {
-                anyhow::ensure!(!cancelled(), "interrupted during phase `{}`", phase.name);
-                anyhow::ensure!(
-                    Instant::now() < deadline,
-                    "phase `{}`: the stroke did not end before the deadline (is the device following the hand path? connected: {})",
-                    phase.name,
-                    ws.connected()
-                );
-                match ws.next_report(Duration::from_millis(100)) {
-                    Some(SimReport::Stroke(s)) => break s,
-                    Some(SimReport::Failed(e)) => anyhow::bail!("simulation failed: {e}"),
-                    None => {}
-                }
-            };
-            PhaseReport {
-                name: phase.name.clone(),
-                kind: format!("stroke:{}", stroke.tool.name()),
-                summary: done.summary,
-                seconds: t0.elapsed().as_secs_f64(),
-            }
-        } else if let Some(op) = &phase.op {
-            let (kind, summary) = ws
-                .run_op(op)
-                .with_context(|| format!("phase `{}`", phase.name))?;
-            PhaseReport {
-                name: phase.name.clone(),
-                kind: format!("op:{kind}"),
-                summary,
-                seconds: t0.elapsed().as_secs_f64(),
-            }
-        } else {
-            continue;
-        };
-        progress(i, &report);
-        reports.push(report);
-        t0 = Instant::now();
-    }
-    Ok(reports)
-}
-
-/// Run the demo; see the module doc.
+/// Run the demo headless; see the module doc.
 pub fn run(args: &DemoArgs) -> anyhow::Result<Summary> {
     run_with(args, DemoHooks::default())
 }
@@ -294,10 +209,10 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
         let core_scene = scene.clone();
         let (server, cfg) = server_and_cfg(())?;
         let addr = cfg.server;
-        let source = super::CursorSource::Server(cfg);
+        let source = CursorSource::Server(cfg);
         let ws = Workstation::start(&core_scene, dir.clone(), source.clone(), Some(frames_dir))?;
         if let Some(tx) = &hooks.started {
-            let _ = tx.send(crate::view::Link::to(&ws, &core_scene, dir, &source));
+            let _ = tx.send(Link::to(&ws, &core_scene, dir, &source));
         }
         (ws, server, addr)
     };

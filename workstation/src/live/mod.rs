@@ -16,12 +16,28 @@
 //!
 //! [`Workstation::start`] loads the scene and starts the threads; [`Workstation::finish`]
 //! stops them and returns the simulation core for saving ([`save`]).
+//!
+//! Layers, arrows pointing down only:
+//! ```text
+//!  demo, run                 commands: drive a session, print, save (demo ──▶ crate::view,
+//!    │                       the window, which shows a session through a Link and imports
+//!    ▼                       neither)
+//!  phases                    a scene's scripted strokes: the fake hand's path, the phase driver
+//!    ▼
+//!  Workstation (here)        starts and stops the threads
+//!    ▼
+//!  sim, force, net, mouse, frames        the threads' cores and drivers (sim's driver times
+//!                                        its loop with force's LoopTimer)
+//!    ▼
+//!  shared, scene_file, transform         hand-offs, scene files, the device frame
+//! ```
 
 pub mod demo;
 pub mod force;
 pub mod frames;
 pub mod mouse;
 pub mod net;
+pub mod phases;
 pub mod run;
 pub mod scene_file;
 pub mod shared;
@@ -29,7 +45,7 @@ pub mod sim;
 pub mod snapshot_png;
 pub mod transform;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc;
@@ -37,16 +53,14 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use glam::DVec3;
 use serde::Serialize;
-use sim_core::io::{self, Format};
-use sim_core::mesh::{TriMesh, extract_zero_set};
 
 use crate::sculpt::script::Op;
 use frames::FrameCount;
 use net::NetConfig;
 use scene_file::{SceneFile, ToolKind};
 use shared::{CURSOR_RING, EVENT_RING, PercentilesUs, Shared};
+pub use sim::{Saved, save};
 use sim::{SimCommand, SimCore, SimReport};
 
 /// Where the cursor comes from.
@@ -339,72 +353,4 @@ pub struct LiveStats {
     pub events_dropped: u64,
     /// PNG frames written.
     pub frames: u64,
-}
-
-/// What [`save`] wrote.
-#[derive(Debug, Clone, Serialize)]
-pub struct Saved {
-    /// Points written.
-    pub points: usize,
-    /// Triangles of the meshed zero set.
-    pub triangles: usize,
-    /// Files written.
-    pub files: Vec<PathBuf>,
-}
-
-/// Save the visible objects: `final.ply` (points, normals, colours) and the meshed zero set as
-/// `final_mesh.ply`, `final_mesh.obj` and `final_mesh.stl`.
-pub fn save(core: &SimCore, out: &Path, resolution: usize) -> anyhow::Result<Saved> {
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let mut points = sim_core::PointSet {
-        positions: Vec::new(),
-        normals: Some(Vec::new()),
-        colors: Some(Vec::new()),
-    };
-    let mut mesh = TriMesh {
-        vertices: Vec::new(),
-        normals: Vec::new(),
-        triangles: Vec::new(),
-    };
-    for o in core.visible() {
-        points.positions.extend_from_slice(&o.positions);
-        if let Some(n) = &mut points.normals {
-            n.extend_from_slice(&o.normals);
-        }
-        if let Some(c) = &mut points.colors {
-            c.extend_from_slice(&o.colors);
-        }
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for p in &o.positions {
-            (lo, hi) = (lo.min(*p), hi.max(*p));
-        }
-        let pad = DVec3::splat((hi - lo).max_element() * 0.05 + 1e-6);
-        let m = extract_zero_set(&o.field, (lo - pad, hi + pad), resolution);
-        let base = mesh.vertices.len() as u32;
-        mesh.vertices.extend_from_slice(&m.vertices);
-        mesh.normals.extend_from_slice(&m.normals);
-        mesh.triangles
-            .extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
-    }
-    let mut files = Vec::new();
-    let ply = out.join("final.ply");
-    let f = std::fs::File::create(&ply).with_context(|| format!("creating {}", ply.display()))?;
-    io::write_points_ply(std::io::BufWriter::new(f), &points, false)?;
-    files.push(ply);
-    for (name, format) in [
-        ("final_mesh.ply", Format::Ply),
-        ("final_mesh.obj", Format::Obj),
-        ("final_mesh.stl", Format::Stl),
-    ] {
-        let path = out.join(name);
-        let f =
-            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
-        io::write_mesh(std::io::BufWriter::new(f), &mesh, format)?;
-        files.push(path);
-    }
-    Ok(Saved {
-        points: points.positions.len(),
-        triangles: mesh.triangles.len(),
-        files,
-    })
 }

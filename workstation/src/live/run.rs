@@ -10,10 +10,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use anyhow::Context as _;
-
-use super::demo::{drive_phases, hand_path, write_hand_path};
-use super::scene_file::SceneFile;
+use super::phases::{drive_phases, hand_path, write_hand_path};
+use super::scene_file::load_scene;
 use super::{Workstation, save};
 
 /// Arguments of `workstation run`.
@@ -54,13 +52,6 @@ pub struct HandPathArgs {
     /// server: start `workstation run` within this time (it fits the scene first).
     #[arg(long, default_value_t = 15.0)]
     pub lead_in: f64,
-}
-
-/// Read and check a scene file; errors name the file and the field.
-pub fn load_scene(path: &Path) -> anyhow::Result<SceneFile> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    SceneFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 
 /// `workstation hand-path`.

@@ -6,9 +6,13 @@
 //! ([`crate::sculpt::script`]), so a scene and a script read alike. Parsing has the same two
 //! layers: serde names unknown, missing and mistyped fields with their line; [`SceneFile::parse`]
 //! then checks every value and reference and names the field, e.g.
-//! `phase[2].stroke.path: must hold at least one point`.
+//! `phase[2].stroke.path: must hold at least one point`. [`load_scene`] reads one from a file;
+//! [`DEMO_SCENE`] is the built-in one.
 
 use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::Context as _;
 
 use glam::{DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
@@ -17,6 +21,18 @@ use sim_core::dynamics::NodeParams;
 use crate::sculpt::script::{Generate, ObjectSpec, Op, RegionSpec, Script, ScriptError};
 
 use super::transform::DeviceTransform;
+
+/// The built-in demo scene (`examples/live/demo.toml`).
+pub const DEMO_SCENE: &str = include_str!("../../../examples/live/demo.toml");
+/// The image it embosses.
+pub const DEMO_IMAGE: &[u8] = include_bytes!("../../../examples/live/ring.png");
+
+/// Read and check a scene file; errors name the file and the field.
+pub fn load_scene(path: &Path) -> anyhow::Result<SceneFile> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    SceneFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
 
 /// The largest number of phases a session may hold.
 pub const MAX_PHASES: usize = 1_000;

@@ -1,5 +1,5 @@
-//! The window's camera: orbit around a target, pan, zoom, frame a box; and the mouse's rays
-//! into the scene. Pure math, no window: tested here.
+//! The window's camera: orbit around a target, pan, zoom, frame a box; the mouse's rays into
+//! the scene and where a point is seen. Pure math, no window: tested here.
 
 use glam::{DVec3, Vec3};
 use render::Camera;
@@ -126,6 +126,31 @@ impl Orbit {
         (self.eye(), d.normalize())
     }
 
+    /// Metres per pixel at 1 m from the eye in a view `height` pixels tall (at depth `z`:
+    /// `z` times this).
+    pub fn metres_per_pixel_per_metre(&self, height: f64) -> f64 {
+        2.0 * (0.5 * Self::FOV_Y_DEG).to_radians().tan() / height.max(1.0)
+    }
+
+    /// The pixel (`x`, `y`) of a `width × height` view where `p` is seen; `None` behind the
+    /// eye. The inverse of [`Orbit::ray`].
+    pub fn project(&self, p: DVec3, width: f64, height: f64) -> Option<(f64, f64)> {
+        let d = p - self.eye();
+        let z = d.dot(self.forward());
+        if z.is_nan() || z <= 1e-9 {
+            return None;
+        }
+        let t = (0.5 * Self::FOV_Y_DEG).to_radians().tan();
+        let aspect = width / height.max(1.0);
+        let (right, up) = self.right_up();
+        let ndc_x = d.dot(right) / (z * t * aspect);
+        let ndc_y = d.dot(up) / (z * t);
+        Some((
+            0.5 * (ndc_x + 1.0) * width.max(1.0),
+            0.5 * (1.0 - ndc_y) * height.max(1.0),
+        ))
+    }
+
     /// Where the ray through pixel (`x`, `y`) meets the plane facing the camera at `depth`
     /// metres from the eye (the mouse cursor's plane).
     pub fn point_at_depth(&self, x: f64, y: f64, width: f64, height: f64, depth: f64) -> DVec3 {
@@ -172,6 +197,20 @@ mod tests {
         assert!((right.x - half_w).abs() < 1e-9, "{right} vs {half_w}");
         let top = o.point_at_depth(400.0, 0.0, 800.0, 600.0, o.distance);
         assert!(top.y > 0.0, "screen up is +Y");
+    }
+
+    #[test]
+    fn projecting_a_point_gives_the_pixel_whose_ray_passes_through_it() {
+        let mut o = orbit();
+        o.orbit(0.4, 0.3);
+        let p = DVec3::new(0.02, -0.01, 0.03);
+        let (x, y) = o.project(p, 800.0, 600.0).unwrap();
+        let (eye, d) = o.ray(x, y, 800.0, 600.0);
+        let off = (p - eye) - d * (p - eye).dot(d);
+        assert!(off.length() < 1e-12, "{off}");
+        assert_eq!(o.project(o.eye() + o.back(), 800.0, 600.0), None);
+        let per_m = o.metres_per_pixel_per_metre(600.0);
+        assert!((per_m * o.distance - o.metres_per_pixel(600.0)).abs() < 1e-15);
     }
 
     #[test]

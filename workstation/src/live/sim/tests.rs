@@ -1,0 +1,149 @@
+//! The simulation core's tests: strokes, run-time settings, operations between strokes.
+
+use glam::{DQuat, DVec3};
+use sim_core::csg::CsgOp;
+
+use super::*;
+use crate::live::scene_file::{SceneFile, ToolKind};
+use crate::live::shared::{ForceTool, InputEvent};
+use crate::sculpt::script::Op;
+
+fn core(selected: &str) -> SimCore {
+    let scene = SceneFile::parse(&format!(
+        r#"
+[[object]]
+name = "ball"
+generate = {{ shape = "sphere", size = 0.05, points = 2000, seed = 2 }}
+[region]
+object = "ball"
+min = [-0.05, 0.0, -0.05]
+max = [0.05, 0.06, 0.05]
+spacing = 0.0025
+band = 0.008
+[tools]
+selected = "{selected}"
+rope = {{ radius = 0.01, stiffness = 60.0, max_force = 3.0 }}
+"#
+    ))
+    .unwrap();
+    SimCore::new(&scene, ".".into()).unwrap()
+}
+
+fn at(p: DVec3, buttons: u16) -> InputEvent {
+    InputEvent {
+        position: p,
+        velocity: DVec3::ZERO,
+        orientation: DQuat::IDENTITY,
+        buttons,
+        force: DVec3::ZERO,
+        contact: None,
+    }
+}
+
+fn lift_near(core: &SimCore, c: DVec3) -> f64 {
+    core.scene().objects()[0]
+        .positions
+        .iter()
+        .filter(|p| p.distance(c) < 0.006)
+        .map(|p| p.length() - 0.05)
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+#[test]
+fn a_curve_rope_pulls_along_the_tips_path_and_the_shape_stays() {
+    let mut c = core("rope_curve");
+    // Press above the surface, slide 4 cm over it 8 mm out, release.
+    let (a, b) = (DVec3::new(-0.02, 0.05, 0.0), DVec3::new(0.02, 0.05, 0.0));
+    let to_surface = |p: DVec3| p.normalize() * 0.058;
+    c.input(&at(to_surface(a), 1)).unwrap();
+    for k in 0..=400 {
+        let p = to_surface(a.lerp(b, k as f64 / 400.0));
+        c.input(&at(p, 1)).unwrap();
+        c.step(1e-3).unwrap();
+        if k % 2 == 0 {
+            c.follow().unwrap();
+        }
+    }
+    c.input(&at(to_surface(b), 0)).unwrap();
+    for _ in 0..50 {
+        c.step(1e-3).unwrap();
+    }
+    c.follow().unwrap();
+    assert_eq!(c.strokes().len(), 1);
+    // Both ends and the middle of the path rose, not only where it was pressed.
+    for x in [-0.02, 0.0, 0.02] {
+        let p = DVec3::new(x, 0.05, 0.0).normalize() * 0.05;
+        let lift = lift_near(&c, p);
+        assert!(
+            lift > 1e-3,
+            "surface under the curve at x = {x}: {lift:e} m"
+        );
+    }
+}
+
+#[test]
+fn settings_change_at_run_time_and_bad_ones_name_the_field() {
+    let mut c = core("touch");
+    let mut s = c.settings();
+    s.tools.rope.stiffness = 120.0;
+    s.tools.probe.semi_axes = [0.004, 0.004, 0.006];
+    c.configure(&s).unwrap();
+    assert_eq!(c.settings().tools.rope.stiffness, 120.0);
+    c.select(ToolKind::ProbePush);
+    assert_eq!(c.force_tool(), ForceTool::Probe(s.tools.probe));
+    // A new material, integrator and step reopen the region; stepping goes on.
+    s.material.stiffness = 20.0;
+    s.integrator = "backward_euler".into();
+    s.dt = 2e-3;
+    c.configure(&s).unwrap();
+    c.step(2e-3).unwrap();
+    assert!(c.publish_field().is_some());
+    assert_eq!(c.settings(), s);
+    let mut bad = s.clone();
+    bad.tools.rope.stiffness = -1.0;
+    let e = c.configure(&bad).unwrap_err();
+    assert!(format!("{e:#}").contains("tools.rope.stiffness"), "{e:#}");
+    assert_eq!(c.settings(), s, "nothing changed");
+}
+
+#[test]
+fn a_primitive_carves_at_the_cursor_and_a_saved_scene_reloads_the_result() {
+    let mut c = core("touch");
+    let top = DVec3::new(0.0, 0.05, 0.0);
+    let (kind, _) = c
+        .csg_primitive(CsgOp::Difference, "sphere", 0.01, top)
+        .unwrap();
+    assert_eq!(kind, "csg");
+    let near = c
+        .visible()
+        .flat_map(|o| o.positions.iter())
+        .filter(|p| p.distance(top) < 0.007)
+        .count();
+    assert_eq!(near, 0, "points left inside the carved sphere");
+    assert!(c.csg_primitive(CsgOp::Union, "cone", 0.01, top).is_err());
+    assert!(
+        c.csg_primitive(CsgOp::Union, "sphere", 0.01, DVec3::NAN)
+            .is_err()
+    );
+    let dir = std::env::temp_dir().join(format!("ws-save-scene-{}", std::process::id()));
+    let path = c.save_scene(&dir).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let scene = SceneFile::parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let again = SimCore::new(&scene, dir.clone()).unwrap();
+    let count = |c: &SimCore| c.visible().map(|o| o.positions.len()).sum::<usize>();
+    assert_eq!(count(&again), count(&c));
+    assert_eq!(again.settings(), c.settings());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_failed_operation_leaves_the_scene_usable() {
+    let mut c = core("touch");
+    let bad: Op = toml::from_str(
+        "kind = \"csg\"\nop = \"union\"\na = \"ball\"\nb = \"nothing\"\nresult = \"r\"",
+    )
+    .unwrap();
+    assert!(c.run_op(&bad).is_err());
+    c.step(1e-3).unwrap();
+    assert!(c.publish_field().is_some(), "the region is open again");
+}
