@@ -5,6 +5,8 @@
 //! alone: the cost scales with the region, not the object.
 //!
 //! Three passes, at a commit ([`Scene::end_stroke`]) and in [`Scene::resample_region`]:
+//! Candidates at a commit are the points the stroke moved, the stranded ones and those in the
+//! box of displaced nodes; after an operation, every point of the region.
 //! 1. **Off the surface** (before the refit, against the sculpted field `F = f_base + Δ`): a
 //!    candidate with `|F| > tolerance` (stranded by a carve, left behind by a push) is
 //!    Newton-projected onto `F = 0`; if that fails, or lands more than [`MAX_PROJECTION`]
@@ -237,15 +239,32 @@ pub(super) fn even_out(
         }
     }
     report.removed += apply_removals(obj, region, off, &mut cands);
+    // Work in the candidates' box grown by 4 spacings (within the region): the indices below
+    // are built over its points only, so a commit costs O(changed area), not O(region).
+    let (mut clo, mut chi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for &i in &cands {
+        let p = obj.positions[i as usize];
+        (clo, chi) = (clo.min(p), chi.max(p));
+    }
+    let (lo, hi) = (lo.max(clo - 4.0 * h), hi.min(chi + 4.0 * h));
+    let in_box = |p: DVec3| p.cmpge(lo).all() && p.cmple(hi).all();
+    let near_of = |region: &Region, obj: &SceneObject| -> Vec<u32> {
+        region
+            .inside
+            .iter()
+            .copied()
+            .filter(|&i| in_box(obj.positions[i as usize]))
+            .collect()
+    };
     // Candidates whose neighbourhood (about 3 spacings) is inside the box: elsewhere the
-    // region's points do not see all their neighbours.
+    // box's points do not see all their neighbours.
     let interior = |p: DVec3| (p - lo).min_element() > 3.0 * h && (hi - p).min_element() > 3.0 * h;
     // Crowded pairs.
-    let local: Vec<DVec3> = region
-        .inside
-        .iter()
-        .map(|&i| obj.positions[i as usize])
-        .collect();
+    let near = near_of(region, obj);
+    if near.len() < 4 {
+        return;
+    }
+    let local: Vec<DVec3> = near.iter().map(|&i| obj.positions[i as usize]).collect();
     let index = PointIndex::new(&local);
     let mut sorted: Vec<u32> = cands.iter().copied().collect();
     sorted.sort_unstable();
@@ -256,7 +275,7 @@ pub(super) fn even_out(
         }
         let (p, n) = (obj.positions[i as usize], obj.normals[i as usize]);
         for (k, _) in index.within(p, opts.min_distance * h) {
-            let j = region.inside[k];
+            let j = near[k];
             if j > i
                 && cands.contains(&j)
                 && !gone.contains(&j)
@@ -271,11 +290,8 @@ pub(super) fn even_out(
     let mut around: Vec<u32> = cands.iter().copied().collect();
     around.sort_unstable();
     for _ in 0..opts.passes {
-        let local: Vec<DVec3> = region
-            .inside
-            .iter()
-            .map(|&i| obj.positions[i as usize])
-            .collect();
+        let near = near_of(region, obj);
+        let local: Vec<DVec3> = near.iter().map(|&i| obj.positions[i as usize]).collect();
         if local.len() < 4 {
             break;
         }

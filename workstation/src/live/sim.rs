@@ -110,6 +110,13 @@ impl SimCore {
         if region.resample != Some(false) {
             params.resample = Some(ResampleOptions::new(spacing[region_object]));
         }
+        // Points follow only where the field moved by a visible fraction of their spacing:
+        // the springs' far ripples would otherwise send every point of the region through
+        // the follower at 500 Hz, O(region points) per step (see docs/BENCHMARKS.md, Big scans).
+        params.follow.motion_epsilon = params
+            .follow
+            .motion_epsilon
+            .max(FOLLOW_EPSILON_PER_SPACING * spacing[region_object]);
         let bounds = (DVec3::from(region.min), DVec3::from(region.max));
         scene
             .open_region(region_object, bounds.0, bounds.1, params)
@@ -203,8 +210,9 @@ impl SimCore {
     /// Surface samples of the visible objects for the probe (each sample's area from its
     /// object's spacing, measured when the object was made: sculpting barely changes it).
     /// Scenes of more than [`SAMPLES_ALL_MAX`] points give only the sculpted object's points in
-    /// the region box, grown by the probe's size: the probe sculpts only there, and the
-    /// samples are rebuilt 50 times a second while it does (O(region), not O(scene)).
+    /// the region near the cursor (within [`SAMPLES_AROUND_CURSOR_M`] plus the probe's size):
+    /// the probe sculpts only there, and the samples are rebuilt 50 times a second while it
+    /// does. Before the first cursor, the whole region.
     pub fn samples(&self) -> Option<SampleGrid> {
         let mut s = Vec::new();
         let reach = DVec3::from(self.file.tools.probe.semi_axes).max_element();
@@ -222,7 +230,11 @@ impl SimCore {
                     &self.scene.objects()[region.object()],
                     self.spacing[region.object()],
                 );
-                let (lo, hi) = (self.bounds.0 - reach, self.bounds.1 + reach);
+                let (mut lo, mut hi) = (self.bounds.0 - reach, self.bounds.1 + reach);
+                if let Some(e) = self.last.filter(|e| e.position.is_finite()) {
+                    let r = DVec3::splat(reach + SAMPLES_AROUND_CURSOR_M);
+                    (lo, hi) = (lo.max(e.position - r), hi.min(e.position + r));
+                }
                 // The region's points, plus those within the probe's reach of its box: a scan
                 // of the box's neighbourhood would be O(scene), so the region's list it is.
                 s.extend(
@@ -295,9 +307,18 @@ impl SimCore {
     }
 }
 
-/// Above this many visible points, the probe's samples cover only the region
-/// ([`SimCore::samples`]).
-pub const SAMPLES_ALL_MAX: usize = 200_000;
+/// Above this many visible points, the probe's samples cover only the region's points near
+/// the cursor ([`SimCore::samples`]).
+pub const SAMPLES_ALL_MAX: usize = 50_000;
+
+/// Points follow field changes larger than this fraction of their spacing (the follower's
+/// `motion_epsilon`; a point's error from the zero set stays below twice that).
+pub const FOLLOW_EPSILON_PER_SPACING: f64 = 0.02;
+
+/// Half size of the box around the cursor whose points a big scene's probe samples hold,
+/// beyond the probe's own reach (m): the samples are rebuilt every 20 ms while probing, and
+/// a hand moves far less than this in that time.
+pub const SAMPLES_AROUND_CURSOR_M: f64 = 0.02;
 
 /// The median nearest-neighbour distance of each object's points (m, at least 1 µm), from at
 /// most 20,000 of them.

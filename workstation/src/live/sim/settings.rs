@@ -66,6 +66,7 @@ impl SimCore {
         let region = file.script().region.context("the scene has no region")?;
         let params = sim_core::scene::RegionParams {
             resample: self.params.resample,
+            follow: self.params.follow,
             ..crate::sculpt::region_params(&region)
         };
         if Settings::of(&self.file).region_part() != s.region_part() {
