@@ -87,8 +87,11 @@ struct FieldData {
     /// Slot of each kd-tree item.
     nearest_ids: Vec<u32>,
     /// Storage slot of each point: per-point data is kept in Morton (Z-curve) order so the
-    /// fields a query blends sit close together in memory.
+    /// fields a query blends sit close together in memory. [`NO_LOCAL`] for a point without a
+    /// local field (appended after the fit); points past the end have none either.
     slot: Vec<u32>,
+    /// Slots no point owns any more (their points were removed; the fields stay in the blend).
+    orphans: Vec<u32>,
     grid: SupportGrid,
     refit: Arc<RefitOperator>,
     scale: f64,
@@ -203,6 +206,7 @@ impl GlobalField {
                 nearest: PointIndex::new(&inlier_points),
                 nearest_ids: inliers,
                 slot,
+                orphans: Vec::new(),
                 grid,
                 refit: Arc::new(refit),
                 scale,
@@ -488,21 +492,73 @@ impl GlobalField {
         &self.inner.params
     }
 
-    /// Frame of local field `i`.
-    pub fn frame(&self, i: usize) -> &LocalFrame {
-        &self.inner.frames[self.inner.slot[i] as usize]
+    /// Storage slot of point `i`'s local field; `None` for a point without one.
+    pub fn slot_of(&self, i: usize) -> Option<usize> {
+        match self.inner.slot.get(i) {
+            Some(&s) if s != NO_LOCAL => Some(s as usize),
+            _ => None,
+        }
     }
 
-    /// World-unit coefficients of local field `i` (`size³`, flat index `(a·size+b)·size+c`).
+    /// Frame of point `i`'s local field (panics if it has none: see
+    /// [`GlobalField::support_radius`]).
+    pub fn frame(&self, i: usize) -> &LocalFrame {
+        self.slot_frame(self.slot_of(i).expect("point has a local field"))
+    }
+
+    /// World-unit coefficients of point `i`'s local field (`size³`, flat index
+    /// `(a·size+b)·size+c`).
     pub fn coefficients(&self, i: usize) -> &[f64] {
+        self.slot_coefficients(self.slot_of(i).expect("point has a local field"))
+    }
+
+    /// Support radius of point `i`'s blending weight (0 for an outlier, or a point without a
+    /// local field).
+    pub fn support_radius(&self, i: usize) -> f64 {
+        self.slot_of(i).map_or(0.0, |s| self.inner.support[s])
+    }
+
+    /// Frame of the local field in storage slot `s`.
+    pub fn slot_frame(&self, s: usize) -> &LocalFrame {
+        &self.inner.frames[s]
+    }
+
+    /// Coefficients of the local field in storage slot `s`.
+    pub fn slot_coefficients(&self, s: usize) -> &[f64] {
         let c = self.inner.params.size.pow(3);
-        let s = self.inner.slot[i] as usize;
         &self.inner.coeffs[s * c..(s + 1) * c]
     }
 
-    /// Support radius of point `i`'s blending weight (0 for an outlier).
-    pub fn support_radius(&self, i: usize) -> f64 {
-        self.inner.support[self.inner.slot[i] as usize]
+    /// Support radius of the local field in storage slot `s`.
+    pub fn slot_support(&self, s: usize) -> f64 {
+        self.inner.support[s]
+    }
+
+    /// Slots of local fields whose points were removed ([`GlobalField::swap_remove_point`]):
+    /// they still blend, so whoever refits the fields of a changed area refits these too.
+    pub fn orphans(&self) -> &[u32] {
+        &self.inner.orphans
+    }
+
+    /// The object's point `i` of `n` was removed by swap-remove (point `n − 1` now sits at
+    /// `i`): keep the point → local field map in step. The removed point's local field stays in
+    /// the blend as an orphan. O(1) unless the field is shared (copy-on-write).
+    pub fn swap_remove_point(&mut self, i: usize, n: usize) {
+        let data = Arc::make_mut(&mut self.inner);
+        if data.slot.len() < n {
+            data.slot.resize(n, NO_LOCAL);
+        }
+        if i >= data.slot.len() {
+            return;
+        }
+        let gone = data.slot.swap_remove(i);
+        if gone != NO_LOCAL && data.support[gone as usize] > 0.0 {
+            data.orphans.push(gone);
+        }
+        // Trailing points without a field need no entry.
+        while data.slot.last() == Some(&NO_LOCAL) {
+            data.slot.pop();
+        }
     }
 
     /// The precomputed refit operator (Eq. 4) for this field's spline size, on a grid of
@@ -523,15 +579,24 @@ impl GlobalField {
 
     /// Replace local field `i`'s coefficients by the refit of `samples` (values at the refit
     /// grid nodes of its domain, see [`RefitOperator::node`] and [`LocalFrame::to_world`]).
-    /// Copy-on-write: other snapshots are unaffected.
+    /// Copy-on-write: other snapshots are unaffected. A point without a field is skipped.
     pub fn refit_local(&mut self, i: usize, samples: &[f64]) {
+        if let Some(s) = self.slot_of(i) {
+            self.refit_slot(s, samples);
+        }
+    }
+
+    /// [`GlobalField::refit_local`] by storage slot.
+    pub fn refit_slot(&mut self, s: usize, samples: &[f64]) {
         let data = Arc::make_mut(&mut self.inner);
         let c = data.params.size.pow(3);
-        let i = data.slot[i] as usize;
         let refit = Arc::clone(&data.refit);
-        refit.apply(samples, &mut data.coeffs[i * c..(i + 1) * c]);
+        refit.apply(samples, &mut data.coeffs[s * c..(s + 1) * c]);
     }
 }
+
+/// The slot of a point without a local field.
+const NO_LOCAL: u32 = u32::MAX;
 
 /// Supports gathered for a box ([`GlobalField::gather_supports`]); reuse one per thread.
 #[derive(Debug, Clone, Default)]
@@ -650,6 +715,7 @@ impl Clone for FieldData {
             nearest: PointIndex::new(&inlier_points),
             nearest_ids: self.nearest_ids.clone(),
             slot: self.slot.clone(),
+            orphans: self.orphans.clone(),
             grid: self.grid.clone(),
             refit: Arc::clone(&self.refit),
             scale: self.scale,

@@ -19,6 +19,7 @@
 //! it rebuckets (after a stroke, or once points drifted half a block).
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::bspline::eval3;
 use crate::dynamics::DynamicGrid;
@@ -216,7 +217,9 @@ fn newton_step(delta: f64, g: DVec3, h: f64) -> Option<DVec3> {
 
 /// Refit the local fields of `moved` points in `live` so they represent `F = f_base + Δ`:
 /// sample the base local spline plus `Δ` at the operator's grid nodes of each point's domain
-/// and apply the precomputed operator (papers' Eq. 4). `samples` is reusable scratch.
+/// and apply the precomputed operator (papers' Eq. 4). Orphaned local fields (their points were
+/// removed, see [`GlobalField::swap_remove_point`]) centred inside the grid are refitted too.
+/// `samples` is reusable scratch. [`refit_samples`] then [`apply_refit`].
 pub fn refit_moved(
     base: &GlobalField,
     live: &mut GlobalField,
@@ -224,26 +227,66 @@ pub fn refit_moved(
     moved: &[u32],
     samples: &mut Vec<f64>,
 ) {
+    let slots = refit_samples(base, model, moved, samples);
+    apply_refit(live, &slots, samples);
+}
+
+/// The reading half of [`refit_moved`]: the storage slots to refit (sorted) and, in
+/// `samples`, `n³` values of `F` per slot in that order. Reads only `base` and `model`, so the
+/// caller may drop its handle on `base` before [`apply_refit`] (a field no other handle shares
+/// is refitted in place instead of copied).
+pub fn refit_samples(
+    base: &GlobalField,
+    model: &DynamicGrid,
+    moved: &[u32],
+    samples: &mut Vec<f64>,
+) -> Vec<u32> {
     let op = std::sync::Arc::clone(base.refit_operator());
     let (size, n) = (op.size(), op.samples());
-    samples.resize(n * n * n, 0.0);
-    for &i in moved {
-        let i = i as usize;
-        if i >= base.len() || base.support_radius(i) == 0.0 {
-            continue; // inserted since the fit, or an outlier: no local field
-        }
-        let frame = *base.frame(i);
-        let coeffs = base.coefficients(i);
-        for a in 0..n {
-            for b in 0..n {
-                for c in 0..n {
-                    let q = op.node(a, b, c);
-                    let (s, _) = eval3(size, coeffs, q[0], q[1], q[2]);
-                    let d = displacement_at(model, frame.to_world(q)).map_or(0.0, |(d, _, _)| d);
-                    samples[(a * n + b) * n + c] = s + d;
+    let n3 = n * n * n;
+    let spec = model.spec();
+    let mut slots: Vec<u32> = moved
+        .iter()
+        .filter_map(|&i| base.slot_of(i as usize))
+        .filter(|&s| base.slot_support(s) > 0.0) // outliers have no local field
+        .map(|s| s as u32)
+        .chain(
+            base.orphans()
+                .iter()
+                .copied()
+                .filter(|&s| spec.contains(base.slot_frame(s as usize).center)),
+        )
+        .collect();
+    slots.sort_unstable();
+    slots.dedup();
+    samples.clear();
+    samples.resize(slots.len() * n3, 0.0);
+    samples
+        .par_chunks_mut(n3)
+        .zip(slots.par_iter())
+        .with_min_len(16)
+        .for_each(|(out, &s)| {
+            let frame = *base.slot_frame(s as usize);
+            let coeffs = base.slot_coefficients(s as usize);
+            for a in 0..n {
+                for b in 0..n {
+                    for c in 0..n {
+                        let q = op.node(a, b, c);
+                        let (v, _) = eval3(size, coeffs, q[0], q[1], q[2]);
+                        let d =
+                            displacement_at(model, frame.to_world(q)).map_or(0.0, |(d, _, _)| d);
+                        out[(a * n + b) * n + c] = v + d;
+                    }
                 }
             }
-        }
-        live.refit_local(i, samples);
+        });
+    slots
+}
+
+/// The writing half of [`refit_moved`]: refit `slots` of `live` from `samples`.
+pub fn apply_refit(live: &mut GlobalField, slots: &[u32], samples: &[f64]) {
+    let n3 = samples.len().checked_div(slots.len()).unwrap_or(0);
+    for (k, &s) in slots.iter().enumerate() {
+        live.refit_slot(s as usize, &samples[k * n3..(k + 1) * n3]);
     }
 }

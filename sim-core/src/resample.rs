@@ -223,12 +223,20 @@ pub const MERGE_MAX_ANGLE_COS: f64 = 0.9;
 
 /// Median distance from each point to its nearest neighbour: the set's spacing.
 pub fn spacing(points: &[DVec3]) -> f64 {
-    if points.len() < 2 {
+    spacing_sampled(points, usize::MAX)
+}
+
+/// [`spacing`] estimated from at most `max_queries` evenly strided points (each against all
+/// points): a big scan's spacing without a query per point.
+pub fn spacing_sampled(points: &[DVec3], max_queries: usize) -> f64 {
+    if points.len() < 2 || max_queries == 0 {
         return 0.0;
     }
     let index = PointIndex::new(points);
+    let stride = points.len().div_ceil(max_queries).max(1);
     let mut d: Vec<f64> = points
         .iter()
+        .step_by(stride)
         .map(|&p| index.nearest_k(p, 2).get(1).map_or(0.0, |x| x.1))
         .collect();
     d.sort_by(f64::total_cmp);

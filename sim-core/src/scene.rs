@@ -17,7 +17,9 @@ use crate::dynamics::{
 };
 use crate::field::GlobalField;
 use crate::field::NoProgress;
-use crate::follow::{FollowOptions, FollowReport, Follower, refit_moved};
+use crate::follow::{
+    FollowOptions, FollowReport, Follower, apply_refit, refit_moved, refit_samples,
+};
 use crate::grid::{GridError, GridSpec, ScalarGrid};
 use crate::local_fit::FitParams;
 use crate::pointset::PointSet;
@@ -26,6 +28,9 @@ use crate::resample::{UpsampleOptions, upsample_at};
 use crate::tools::{GridTool, Rope, ToolError};
 
 mod edit;
+mod resample;
+
+pub use resample::{MAX_PROJECTION, ResampleOptions, ResampleReport};
 
 /// One object: its points (positions, unit normals, colours) and its implicit field.
 #[derive(Debug, Clone)]
@@ -95,6 +100,10 @@ pub struct RegionParams {
     /// tangent circle is wider than this (m); `None`: never. Inserted points lie on the refitted
     /// field and carry no local field until [`Scene::refit`].
     pub auto_upsample: Option<f64>,
+    /// Resample the region's changed points at the end of each stroke (project or remove
+    /// points off the surface, merge crowded ones, fill holes; see [`ResampleOptions`]);
+    /// `None`: never.
+    pub resample: Option<ResampleOptions>,
 }
 
 impl RegionParams {
@@ -110,6 +119,7 @@ impl RegionParams {
             follow_every: 1,
             follow: FollowOptions::default(),
             auto_upsample: None,
+            resample: None,
         }
     }
 }
@@ -147,16 +157,23 @@ pub struct Region {
     bounds: (DVec3, DVec3),
     model: DynamicGrid,
     stepper: Stepper,
-    base: GlobalField,
+    /// The object's field when the stroke began (`None` only inside `end_stroke`).
+    base: Option<GlobalField>,
     inside: Vec<u32>,
     follower: Follower,
     samples: Vec<f64>,
     pending_dt: f64,
     steps: u64,
     params: RegionParams,
+    last_resample: ResampleReport,
 }
 
 impl Region {
+    /// What the last commit's resampling did.
+    pub fn last_resample(&self) -> ResampleReport {
+        self.last_resample
+    }
+
     /// The dynamic model.
     pub fn model(&self) -> &DynamicGrid {
         &self.model
@@ -183,8 +200,12 @@ impl Region {
         if dt == 0.0 {
             return FollowReport::default();
         }
+        let base = self
+            .base
+            .as_ref()
+            .expect("an open region has its base field");
         self.follower.follow(
-            &self.base,
+            base,
             &self.model,
             &self.inside,
             &mut obj.positions,
@@ -299,13 +320,14 @@ impl Scene {
             bounds: (min, max),
             model,
             stepper: Stepper::new(params.integrator),
-            base: field,
+            base: Some(field),
             inside,
             follower: Follower::new(obj.positions.len(), params.follow),
             samples: Vec::new(),
             pending_dt: 0.0,
             steps: 0,
             params,
+            last_resample: ResampleReport::default(),
         });
         Ok(())
     }
@@ -396,7 +418,10 @@ impl Scene {
         observer.stage_done(SculptStage::Follow);
         if region.params.refit_every_step {
             refit_moved(
-                &region.base,
+                region
+                    .base
+                    .as_ref()
+                    .expect("an open region has its base field"),
                 &mut obj.field,
                 &region.model,
                 region.follower.moved(),
@@ -408,21 +433,51 @@ impl Scene {
     }
 
     /// End the stroke: refit moved points' local fields from the grid and make the sculpted
-    /// field the new rest state (plastic), so the shape stays when the tools let go.
+    /// field the new rest state (plastic), so the shape stays when the tools let go; then, with
+    /// [`RegionParams::resample`], resample the changed points (see [`ResampleOptions`]).
+    /// Returns the number of points the stroke moved. The object's field is refitted in place
+    /// (the region lets go of its handle first), so a commit costs O(moved points), not a copy
+    /// of the whole field.
     pub fn end_stroke(&mut self) -> Result<usize, SceneError> {
         let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
         let obj = &mut self.objects[region.object];
         region.catch_up(obj);
-        refit_moved(
-            &region.base,
-            &mut obj.field,
-            &region.model,
-            region.follower.moved(),
-            &mut region.samples,
-        );
-        region.model.commit();
-        region.base = obj.field.clone();
+        let base = region
+            .base
+            .take()
+            .expect("an open region has its base field");
         let n = region.follower.moved().len();
+        let mut report = ResampleReport::default();
+        let mut changed: Vec<u32> = region.follower.moved().to_vec();
+        let mut removed = Vec::new();
+        if let Some(opts) = region.params.resample {
+            // Stranded points never moved, and points beside the deformation may not have
+            // moved by more than ε: check every point where the field changed.
+            let follower = &region.follower;
+            let changed_box = resample::displaced_box(&region.model, 0.01 * opts.spacing);
+            changed.extend(region.inside.iter().copied().filter(|&i| {
+                follower.is_stranded(i as usize)
+                    || changed_box.is_some_and(|(lo, hi)| {
+                        let p = obj.positions[i as usize];
+                        p.cmpge(lo).all() && p.cmple(hi).all()
+                    })
+            }));
+            changed.sort_unstable();
+            changed.dedup();
+            removed = resample::off_surface(
+                obj,
+                &mut region.follower,
+                &changed,
+                &opts,
+                Some((&base, &region.model)),
+                &mut report,
+            );
+        }
+        // Removed points' fields are refitted too: they stay in the blend as orphans.
+        let slots = refit_samples(&base, &region.model, &changed, &mut region.samples);
+        drop(base);
+        apply_refit(&mut obj.field, &slots, &region.samples);
+        region.model.commit();
         if let Some(max_gap) = region.params.auto_upsample {
             let which: Vec<usize> = region
                 .follower
@@ -435,7 +490,24 @@ impl Scene {
             edit::append_points(obj, Some(region), &items);
         }
         region.follower.clear_moved();
+        if let Some(opts) = region.params.resample {
+            let mut cands: std::collections::HashSet<u32> = changed.iter().copied().collect();
+            report.removed += resample::apply_removals(obj, region, removed, &mut cands);
+            resample::even_out(obj, region, cands, &opts, &mut report);
+        }
+        region.last_resample = report;
+        region.base = Some(obj.field.clone());
         Ok(n)
+    }
+
+    /// The points of the region's object changed since the last call (moved by the field,
+    /// projected, appended, or refilled by a removal), each once, appended to `out`; returns the
+    /// object, or `None` without a region. Points changed by other means (object edits,
+    /// [`Scene::replace_points`], a region reopened) are the caller's to track.
+    pub fn take_changed_points(&mut self, out: &mut Vec<u32>) -> Option<usize> {
+        let region = self.region.as_mut()?;
+        region.follower.take_changed(out);
+        Some(region.object)
     }
 
     /// Close the region (after ending the stroke).

@@ -38,7 +38,8 @@ const ERROR_SEED_SALT: u64 = 0x9e37_79b9_7f4a_7c15;
 /// Arguments of `workstation fit`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct FitArgs {
-    /// Point or mesh file (.ply .off .obj .xyz .pwn .stl), or a generator: gen:sphere:R:N,
+    /// Point or mesh file (.ply .off .obj .xyz .pwn .stl), sample:MESH_FILE:N (N points on
+    /// the mesh's triangles with interpolated normals: a dense scan), or a generator: gen:sphere:R:N,
     /// gen:torus:R:r:N, gen:ellipsoid:a:b:c:N, gen:box:hx:hy:hz:round:N,
     /// gen:cylinder:radius:height:N, gen:plate:side:thickness:N, gen:carved:R:r:d:N (sphere R
     /// minus sphere r at distance d: a CSG difference with a sharp crease).
@@ -138,6 +139,9 @@ pub struct FitReport {
     pub fits_s: f64,
     /// Worker threads used.
     pub threads: usize,
+    /// Peak resident memory of the process when construction ended (input, points and
+    /// field), MiB (Linux `VmHWM`; 0 elsewhere).
+    pub peak_rss_mib: f64,
     /// Normals estimated by PCA.
     pub estimated_normals: usize,
     /// Points rejected as outliers.
@@ -297,6 +301,14 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             }
             (loaded.points, loaded.mesh, ReferenceSpec::None)
         }
+        InputSpec::SampledMesh { path, n } => {
+            let mesh = read_file(path)?
+                .mesh
+                .with_context(|| format!("{} has no faces to sample", path.display()))?;
+            let points = crate::bigscan::sample_mesh(&mesh, *n, args.seed, None);
+            anyhow::ensure!(!points.is_empty(), "{} has no area", path.display());
+            (points, Some(mesh), ReferenceSpec::None)
+        }
         InputSpec::Generated { shape, n } => {
             let noise = Noise {
                 position: args.noise * shape.reference_size(),
@@ -360,6 +372,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
     let t0 = Instant::now();
     let rec = reconstruct(&points, &params, policy, &mut timer, &Bar(bar.clone()))?;
     let construct_s = t0.elapsed().as_secs_f64();
+    let peak_rss_mib = crate::bigscan::peak_rss_kib() as f64 / 1024.0;
     bar.finish_and_clear();
 
     let t1 = Instant::now();
@@ -424,6 +437,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         normals_s: secs(Stage::Normals),
         fits_s: secs(Stage::Fit),
         threads: rayon::current_num_threads(),
+        peak_rss_mib,
         estimated_normals: rec.estimated_normals,
         outliers: rec.field.outlier_count(),
         reference: reference.as_ref().map(|(name, _)| name.clone()),
@@ -464,6 +478,7 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
     println!("normals      {:9.4} s", r.normals_s);
     println!("fits         {:9.4} s", r.fits_s);
     println!("construction {:9.4} s total", r.construct_s);
+    println!("memory       {:9.1} MiB peak resident", r.peak_rss_mib);
     match (&r.reference, r.reference_size) {
         (Some(name), Some(size)) => println!("reference    {name} (size {size:.6e} m)"),
         _ => println!("reference    none given (use --reference sphere:R | torus:R,r | mesh:FILE)"),

@@ -6,6 +6,8 @@
 
 pub mod bench_force;
 pub mod bench_sim;
+pub mod bench_view;
+pub mod bigscan;
 #[cfg(feature = "demo-server")]
 pub mod delay_study;
 pub mod fit;

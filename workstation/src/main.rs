@@ -59,6 +59,10 @@ enum Command {
     Relay(workstation::relay::RelayArgs),
     /// Echo UDP datagrams: the baseline peer for `latency --echo ADDR` on the server's machine.
     UdpEcho(workstation::latency::UdpEchoArgs),
+    /// Big scans: load, fit and sculpt dense mesh samplings (--points 100000,1000000) on the
+    /// real simulation, force and renderer threads against a 7k-point baseline of the same
+    /// run: fit time and memory, step and force-loop rates, frame preparation.
+    BenchView(workstation::bench_view::BenchViewArgs),
     /// Time the haptic queries (field force, shaped probe, B-spline sculpt tick) with their force error.
     BenchForce(workstation::bench_force::BenchForceArgs),
     /// What network delay and loss do to a stiff contact, per rendering method (held force,
@@ -103,6 +107,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::BenchSim(args) => {
             let report = workstation::bench_sim::run(&args)?;
             workstation::bench_sim::print(&report, args.json)
+        }
+        Command::BenchView(args) => {
+            let report = workstation::bench_view::run(&args)?;
+            workstation::bench_view::print(&report, args.json)
         }
         Command::BenchForce(args) => {
             let report = workstation::bench_force::run(&args)?;

@@ -20,7 +20,7 @@ use sim_core::dynamics::Integrator;
 use sim_core::io::{self, Format};
 use sim_core::mesh::extract_zero_set;
 use sim_core::sampling::Shape;
-use sim_core::scene::{RegionParams, Scene, SceneObject};
+use sim_core::scene::{RegionParams, ResampleOptions, Scene, SceneObject};
 use sim_core::{FitParams, PointSet};
 
 use script::{ObjectSpec, RegionSpec, Script};
@@ -99,13 +99,13 @@ pub fn run_script(script: &Script, dir: &Path, out: &Path) -> anyhow::Result<Scu
         |names: &[String], n: &str| names.iter().position(|x| x == n).context("unknown object");
     let dt = script.region.as_ref().map_or(1e-3, |r| r.dt);
     if let Some(r) = &script.region {
+        let object = id(&names, &r.object)?;
+        let mut params = region_params(r);
+        if r.resample == Some(true) {
+            params.resample = Some(resample_options(&scene.objects()[object].positions));
+        }
         scene
-            .open_region(
-                id(&names, &r.object)?,
-                DVec3::from(r.min),
-                DVec3::from(r.max),
-                region_params(r),
-            )
+            .open_region(object, DVec3::from(r.min), DVec3::from(r.max), params)
             .context("opening the region")?;
     }
     let mut ops = Vec::new();
@@ -134,6 +134,12 @@ pub fn run_script(script: &Script, dir: &Path, out: &Path) -> anyhow::Result<Scu
         serde_json::to_string_pretty(&report)?,
     )?;
     Ok(report)
+}
+
+/// Region resampling for an object of these points: its spacing estimated from at most
+/// 20,000 of them.
+pub(crate) fn resample_options(positions: &[DVec3]) -> ResampleOptions {
+    ResampleOptions::new(sim_core::resample::spacing_sampled(positions, 20_000).max(1e-6))
 }
 
 pub(crate) fn region_params(r: &RegionSpec) -> RegionParams {
@@ -165,6 +171,20 @@ pub(crate) fn load_object(
                 .with_context(|| format!("opening {}", path.display()))?;
             io::read(std::io::BufReader::new(f), format)?.points
         }
+        (None, Some(g)) if g.shape.starts_with("sample:") => {
+            // A dense sampling of a mesh file (relative to the scene), scaled so its box's
+            // longest side is `size`: a big-scan stand-in.
+            let path = dir.join(&g.shape["sample:".len()..]);
+            let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+            let format =
+                Format::from_extension(ext).with_context(|| format!("unknown format `{ext}`"))?;
+            let f = std::fs::File::open(&path)
+                .with_context(|| format!("opening {}", path.display()))?;
+            let mesh = io::read(std::io::BufReader::new(f), format)?
+                .mesh
+                .with_context(|| format!("{} has no faces to sample", path.display()))?;
+            crate::bigscan::sample_mesh(&mesh, g.points, g.seed, Some(g.size))
+        }
         (None, Some(g)) => {
             let shape = match g.shape.as_str() {
                 "sphere" => Shape::Sphere { radius: g.size },
@@ -187,6 +207,9 @@ pub(crate) fn load_object(
     };
     let offset = DVec3::from(spec.offset);
     points.positions.iter_mut().for_each(|p| *p += offset);
+    if points.len() >= crate::bigscan::SPATIAL_ORDER_MIN {
+        crate::bigscan::spatial_order(&mut points);
+    }
     fit_object(spec.name.clone(), points, fit)
 }
 

@@ -26,6 +26,9 @@ pub struct Follower {
     pub options: FollowOptions,
     moved: Vec<u32>,
     is_moved: Vec<bool>,
+    /// Points changed since the last [`Follower::take_changed`] (each once).
+    changed: Vec<u32>,
+    is_changed: Vec<bool>,
     is_stranded: Vec<bool>,
     stranded: usize,
     /// Per point (object index).
@@ -49,6 +52,7 @@ impl Follower {
         Self {
             options,
             is_moved: vec![false; points],
+            is_changed: vec![false; points],
             is_stranded: vec![false; points],
             cache: vec![PointCache::default(); points],
             rebuild: true,
@@ -65,6 +69,7 @@ impl Follower {
     pub fn grow(&mut self, points: usize) {
         if points > self.is_moved.len() {
             self.is_moved.resize(points, false);
+            self.is_changed.resize(points, false);
             self.is_stranded.resize(points, false);
             self.cache.resize(points, PointCache::default());
         }
@@ -83,10 +88,75 @@ impl Follower {
         self.rebuild = true;
     }
 
+    /// Record that point `i` changed (moved, appended, or refilled by a removal) for the next
+    /// [`Follower::take_changed`].
+    pub fn mark_changed(&mut self, i: u32) {
+        let iu = i as usize;
+        if iu >= self.is_changed.len() {
+            self.is_changed.resize(iu + 1, false);
+        }
+        if !self.is_changed[iu] {
+            self.is_changed[iu] = true;
+            self.changed.push(i);
+        }
+    }
+
+    /// Append the points changed since the last call to `out` (each once, in the order they
+    /// first changed) and forget them. O(changed).
+    pub fn take_changed(&mut self, out: &mut Vec<u32>) {
+        for &i in &self.changed {
+            if let Some(c) = self.is_changed.get_mut(i as usize) {
+                *c = false;
+            }
+        }
+        out.extend(
+            self.changed
+                .iter()
+                .copied()
+                .filter(|&i| (i as usize) < self.is_moved.len()),
+        );
+        self.changed.clear();
+    }
+
+    /// The object's point `i` was swap-removed (its last point moved into `i`): keep the
+    /// per-point state in step. O(moved points).
+    pub fn swap_remove(&mut self, i: usize) {
+        if i >= self.is_moved.len() {
+            return;
+        }
+        let last = self.is_moved.len() - 1;
+        if self.is_moved[i] {
+            self.moved.retain(|&x| x as usize != i);
+        }
+        if self.is_moved[last] && last != i {
+            for x in &mut self.moved {
+                if *x as usize == last {
+                    *x = i as u32;
+                }
+            }
+            self.moved.sort_unstable();
+        }
+        if self.is_stranded[i] {
+            self.stranded -= 1;
+        }
+        self.is_moved.swap_remove(i);
+        self.is_stranded.swap_remove(i);
+        self.cache.swap_remove(i);
+        // The point now at `i` is new there to whoever reads the changes (a listed index past
+        // the end is dropped by `take_changed`).
+        self.is_changed.resize(self.is_moved.len(), false);
+        if let Some(c) = self.is_changed.get_mut(i) {
+            *c = false;
+        }
+        self.mark_changed(i as u32);
+        self.rebuild = true;
+    }
+
     /// Heap bytes held (per-point caches and flags, buckets, per-node references, scratch).
     pub fn memory_bytes(&self) -> usize {
         self.cache.capacity() * std::mem::size_of::<PointCache>()
-            + self.is_moved.capacity() * 2
+            + self.is_moved.capacity() * 3
+            + self.changed.capacity() * 4
             + (self.moved.capacity() + self.block_items.capacity() + self.block_start.capacity())
                 * 4
             + self.bucketed.capacity() * 24
@@ -161,6 +231,10 @@ impl Follower {
             if !self.is_moved[i] {
                 self.is_moved[i] = true;
                 self.moved.push(w);
+            }
+            if !self.is_changed[i] {
+                self.is_changed[i] = true;
+                self.changed.push(w);
             }
         }
         // Rebucket once points have drifted half a block from where they were bucketed.

@@ -89,6 +89,9 @@ pub(super) fn append_points(
     if let Some(region) = region {
         let spec = *region.model.spec();
         region.follower.grow(obj.positions.len());
+        for i in first as u32..obj.positions.len() as u32 {
+            region.follower.mark_changed(i);
+        }
         region.inside.extend(
             (first as u32..obj.positions.len() as u32)
                 .filter(|&i| spec.contains(obj.positions[i as usize])),

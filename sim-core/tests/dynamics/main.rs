@@ -9,6 +9,7 @@ mod integrators;
 #[path = "../support/plot_setup.rs"]
 mod plot_setup;
 mod plots;
+mod resample;
 mod rope;
 mod scene;
 mod shell;

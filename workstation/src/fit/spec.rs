@@ -14,6 +14,14 @@ use crate::limits::MAX_GEN_POINTS;
 pub enum InputSpec {
     /// A point or mesh file.
     File(PathBuf),
+    /// `n` points sampled from a mesh file's triangles (`sample:FILE:N`), normals interpolated
+    /// from its vertex normals, in spatial order: a dense scan stand-in (issue 19).
+    SampledMesh {
+        /// The mesh file.
+        path: PathBuf,
+        /// Point count.
+        n: usize,
+    },
     /// `n` points sampled from an analytic shape.
     Generated {
         /// The shape.
@@ -129,6 +137,21 @@ pub fn shape(name: &str, p: &[f64]) -> anyhow::Result<Shape> {
 /// `gen:box:hx:hy:hz:rounding:N`, `gen:cylinder:radius:height:N`, `gen:plate:side:thickness:N`,
 /// `gen:carved:R:r:d:N` (a sphere minus a sphere: a CSG difference with a sharp crease).
 pub fn parse_input(s: &str) -> anyhow::Result<InputSpec> {
+    if let Some(rest) = s.strip_prefix("sample:") {
+        let (path, n_str) = rest
+            .rsplit_once(':')
+            .with_context(|| format!("generator {s:?}: expected sample:MESH_FILE:N"))?;
+        let n: usize = n_str
+            .parse()
+            .with_context(|| format!("generator {s:?}: point count {n_str:?}"))?;
+        ensure!(n >= 1, "generator {s:?}: needs at least one point");
+        ensure!(!path.is_empty(), "generator {s:?}: missing mesh file");
+        crate::cap!(format!("generator {s:?}: N"), n, MAX_GEN_POINTS, "points")?;
+        return Ok(InputSpec::SampledMesh {
+            path: PathBuf::from(path),
+            n,
+        });
+    }
     let Some(rest) = s.strip_prefix("gen:") else {
         return Ok(InputSpec::File(PathBuf::from(s)));
     };

@@ -5,8 +5,8 @@
 //! splats and overlays.
 //!
 //! Points become lit surfel splats oriented by their normals, each of a radius from its local
-//! spacing (the distance to its 6th nearest neighbour, recomputed only when the point set
-//! changed size or moved), in its colour; overlays: the probe (when the probe is the tool), the
+//! spacing (the distance to its 6th nearest neighbour, recomputed only for the points that
+//! moved, appeared or disappeared and their neighbours: [`SplatCache`]), in its colour; overlays: the probe (when the probe is the tool), the
 //! haptic cursor, the sculpting region box and the contact force arrow.
 
 use std::path::{Path, PathBuf};
@@ -18,6 +18,8 @@ use glam::DVec3;
 use render::{BackendChoice, Camera, Ellipsoid, HeadlessRenderer, Image, Overlay, Splat};
 use sim_core::knn::PointIndex;
 
+use super::neighbours::{Edits, NeighbourCache};
+use super::points::ChunkedPoints;
 use super::scene_file::{RenderSpec, ToolKind};
 use super::shared::{RenderSnapshot, Shared};
 
@@ -41,48 +43,200 @@ pub fn splat_radii(positions: &[glam::DVec3]) -> Vec<f32> {
         .collect()
 }
 
-/// Splats of a snapshot, with the radii kept until the points change (the neighbour search
-/// is the expensive part); shared by the PNG frames and the window.
+/// How a [`SplatCache`] keeps the radii up to date.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum SplatUpdate {
+    /// Recompute only moved, added and removed points and the points whose neighbourhood
+    /// they entered or left ([`NeighbourCache`]).
+    #[default]
+    Incremental,
+    /// The old way, kept to measure against: when any point changed, recompute every radius
+    /// ([`splat_radii`]) and rewrite every splat.
+    Full,
+}
+
+/// What one [`SplatCache::update`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SplatWork {
+    /// Points whose position changed (moved, added; removed ones are not counted).
+    pub moved: usize,
+    /// Radii recomputed.
+    pub recomputed: usize,
+    /// Splats rewritten.
+    pub rewritten: usize,
+}
+
+/// Splats of a snapshot, kept from frame to frame and rewritten only where points changed
+/// (shared by the PNG frames and the window). Changed points are found by chunk: a chunk the
+/// cache saw before (same id, same place) is skipped, the others are compared point by point
+/// with the cache's copy; radii come from a [`NeighbourCache`], the one place neighbour-derived
+/// data lives. Cost per snapshot: O(chunks + points of changed chunks + recomputed points · k);
+/// the k-d tree is only built on a full rebuild (first snapshot, or a quarter of the points
+/// changed).
 #[derive(Debug, Default)]
 pub struct SplatCache {
-    radii: Vec<f32>,
-    radii_for: Option<(usize, u64)>,
+    mode: SplatUpdate,
+    /// `(first point, chunk id)` of the chunks of the last snapshot.
+    seen: Vec<(usize, u64)>,
+    neighbours: NeighbourCache,
     splats: Vec<Splat>,
+    edits: Edits,
+    recolored: Vec<u32>,
+    starts: Vec<usize>,
+    last: SplatWork,
 }
 
 impl SplatCache {
+    /// An empty cache updating by `mode`.
+    pub fn new(mode: SplatUpdate) -> Self {
+        Self {
+            mode,
+            ..Self::default()
+        }
+    }
+
     /// The splats of `snap` (the buffer is reused from frame to frame).
     pub fn splats(&mut self, snap: &RenderSnapshot) -> &[Splat] {
-        let key = points_key(snap);
-        if self.radii_for != Some(key) {
-            self.radii = splat_radii(&snap.positions);
-            self.radii_for = Some(key);
-        }
-        self.splats.clear();
-        self.splats.extend(
-            snap.positions
-                .iter()
-                .zip(&snap.normals)
-                .zip(&snap.colors)
-                .zip(&self.radii)
-                .map(|(((p, n), c), r)| {
-                    Splat::disk(
-                        p.as_vec3().to_array(),
-                        n.as_vec3().to_array(),
-                        *r,
-                        [c[0], c[1], c[2], 255],
-                    )
-                }),
-        );
+        self.update(&snap.points);
         &self.splats
     }
+
+    /// The splats of the last update.
+    pub fn current(&self) -> &[Splat] {
+        &self.splats
+    }
+
+    /// What the last update did.
+    pub fn last_work(&self) -> SplatWork {
+        self.last
+    }
+
+    /// The neighbour cache (radii and the positions they are for).
+    pub fn neighbours(&self) -> &NeighbourCache {
+        &self.neighbours
+    }
+
+    /// Bring the splats up to date with `points`.
+    pub fn update(&mut self, points: &ChunkedPoints) -> SplatWork {
+        self.starts.clear();
+        let mut start = 0;
+        for c in points.chunks() {
+            self.starts.push(start);
+            start += c.len();
+        }
+        if self.mode == SplatUpdate::Full {
+            return self.update_full(points);
+        }
+        let old = self.neighbours.positions().len();
+        let first = self.neighbours.rebuilds() == 0;
+        self.edits.set.clear();
+        self.edits.len = points.len();
+        self.recolored.clear();
+        for (j, c) in points.chunks().iter().enumerate() {
+            let s = self.starts[j];
+            if !first && self.seen.get(j) == Some(&(s, c.id)) {
+                continue;
+            }
+            let pos = self.neighbours.positions();
+            for (k, p) in c.positions.iter().enumerate() {
+                let i = s + k;
+                if i >= old || pos[i] != *p {
+                    self.edits.set.push((i as u32, *p));
+                } else {
+                    let want = splat(*p, c.normals[k], c.colors[k], self.splats[i].radius);
+                    if want != self.splats[i] {
+                        self.recolored.push(i as u32);
+                    }
+                }
+            }
+        }
+        self.seen.clear();
+        self.seen.extend(
+            points
+                .chunks()
+                .iter()
+                .zip(&self.starts)
+                .map(|(c, &s)| (s, c.id)),
+        );
+        if !first && self.edits.set.is_empty() && self.recolored.is_empty() && old == points.len() {
+            self.last = SplatWork::default();
+            return self.last;
+        }
+        self.neighbours.update(&self.edits);
+        self.splats.resize(points.len(), Splat::default());
+        let (affected, shapes) = (self.neighbours.affected(), self.neighbours.shapes());
+        let mut rewritten = 0;
+        for &i in affected.iter().chain(&self.recolored) {
+            let i = i as usize;
+            let j = self.starts.partition_point(|&s| s <= i) - 1;
+            let (c, k) = (&points.chunks()[j], i - self.starts[j]);
+            self.splats[i] = splat(c.positions[k], c.normals[k], c.colors[k], shapes[i].radius);
+            rewritten += 1;
+        }
+        self.last = SplatWork {
+            moved: self.edits.set.len(),
+            recomputed: affected.len(),
+            rewritten,
+        };
+        self.last
+    }
+
+    fn update_full(&mut self, points: &ChunkedPoints) -> SplatWork {
+        let key = points.key();
+        let changed = self.seen.first() != Some(&key);
+        let mut work = SplatWork::default();
+        if changed {
+            let pos: Vec<DVec3> = points.positions().copied().collect();
+            let radii = splat_radii(&pos);
+            self.neighbours = NeighbourCache::default();
+            self.splats.clear();
+            self.splats.extend(
+                points
+                    .chunks()
+                    .iter()
+                    .flat_map(|c| (0..c.len()).map(move |k| (c, k)))
+                    .zip(radii)
+                    .map(|((c, k), r)| splat(c.positions[k], c.normals[k], c.colors[k], r)),
+            );
+            self.seen = vec![key];
+            work = SplatWork {
+                moved: pos.len(),
+                recomputed: pos.len(),
+                rewritten: pos.len(),
+            };
+        } else {
+            // The old cache rewrote every splat every frame.
+            let radii: Vec<f32> = self.splats.iter().map(|s| s.radius).collect();
+            self.splats.clear();
+            self.splats.extend(
+                points
+                    .chunks()
+                    .iter()
+                    .flat_map(|c| (0..c.len()).map(move |k| (c, k)))
+                    .zip(radii)
+                    .map(|((c, k), r)| splat(c.positions[k], c.normals[k], c.colors[k], r)),
+            );
+            work.rewritten = self.splats.len();
+        }
+        self.last = work;
+        work
+    }
+}
+
+fn splat(p: DVec3, n: DVec3, c: [u8; 3], radius: f32) -> Splat {
+    Splat::disk(
+        p.as_vec3().to_array(),
+        n.as_vec3().to_array(),
+        radius,
+        [c[0], c[1], c[2], 255],
+    )
 }
 
 /// The box a view of `snap` should frame: its points and the region (a 0.2 m cube at the
 /// origin when it has neither).
 pub fn scene_bounds(snap: &RenderSnapshot) -> (DVec3, DVec3) {
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for p in &snap.positions {
+    for p in snap.points.positions() {
         (lo, hi) = (lo.min(*p), hi.max(*p));
     }
     if let Some((a, b)) = snap.region {
@@ -127,6 +281,8 @@ pub struct FrameMaker {
     camera: Option<Camera>,
     splats: SplatCache,
     image: Image,
+    /// Time the last frame spent preparing splats and drawing them.
+    timings: (Duration, Duration),
 }
 
 impl FrameMaker {
@@ -134,11 +290,20 @@ impl FrameMaker {
     /// (`auto`, the default: a GPU; the CPU splatter on a software Vulkan driver or without
     /// any, said once with how to get the fast path).
     pub fn new(spec: &RenderSpec) -> anyhow::Result<Self> {
-        Self::with_backend(spec, BackendChoice::Auto)
+        Self::build(spec, BackendChoice::Auto, SplatUpdate::Incremental)
     }
 
     /// As [`FrameMaker::new`] on the backend `choice`.
     pub fn with_backend(spec: &RenderSpec, choice: BackendChoice) -> anyhow::Result<Self> {
+        Self::build(spec, choice, SplatUpdate::Incremental)
+    }
+
+    /// [`FrameMaker::new`], keeping splat radii up to date by `mode`.
+    pub fn with_splats(spec: &RenderSpec, mode: SplatUpdate) -> anyhow::Result<Self> {
+        Self::build(spec, BackendChoice::Auto, mode)
+    }
+
+    fn build(spec: &RenderSpec, choice: BackendChoice, mode: SplatUpdate) -> anyhow::Result<Self> {
         let renderer = HeadlessRenderer::new(spec.width, spec.height, choice)?;
         match renderer.fallback_reason() {
             Some(why) => tracing::warn!("frames are drawn on the CPU: {why}"),
@@ -148,13 +313,24 @@ impl FrameMaker {
             renderer,
             spec: *spec,
             camera: None,
-            splats: SplatCache::default(),
+            splats: SplatCache::new(mode),
             image: Image {
                 width: 0,
                 height: 0,
                 rgba: Vec::new(),
             },
+            timings: (Duration::ZERO, Duration::ZERO),
         })
+    }
+
+    /// Time the last [`FrameMaker::render`] spent bringing the splats up to date, and drawing.
+    pub fn timings(&self) -> (Duration, Duration) {
+        self.timings
+    }
+
+    /// The splat cache.
+    pub fn splat_cache(&self) -> &SplatCache {
+        &self.splats
     }
 
     /// Render `snap` with the haptic overlays from `shared`.
@@ -169,26 +345,20 @@ impl FrameMaker {
             )
         });
         let overlay = overlay(snap, shared);
+        let t0 = Instant::now();
         let splats = self.splats.splats(snap);
+        let t1 = Instant::now();
         self.renderer
             .render_into(splats, &overlay, &camera, &mut self.image)?;
+        self.timings = (t1 - t0, t1.elapsed());
         Ok(&self.image)
     }
 }
 
-/// Changes when the points change (count, positions or colours): a sum over them, O(points),
-/// far cheaper than the neighbour search it saves.
+/// Changes when the points change (count, positions, normals or colours): the snapshot's
+/// chunk ids, O(chunks).
 pub fn points_key(snap: &RenderSnapshot) -> (usize, u64) {
-    let mut h = 0u64;
-    for (p, c) in snap.positions.iter().zip(&snap.colors) {
-        for v in p.to_array() {
-            h = h.wrapping_mul(31).wrapping_add(v.to_bits());
-        }
-        h = h
-            .wrapping_mul(31)
-            .wrapping_add(u64::from(u32::from_le_bytes([c[0], c[1], c[2], 0])));
-    }
-    (snap.positions.len(), h)
+    snap.points.key()
 }
 
 /// Frames written so far, shared with the session.
@@ -246,4 +416,91 @@ pub fn write_frame(
     let path = dir.join(format!("frame_{n:04}.png"));
     maker.render(snap, shared)?.save_png(&path)?;
     Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::live::points::{ObjectPoints, PointPublisher};
+
+    fn ring(n: usize) -> Vec<DVec3> {
+        // A wavy band: irregular spacing, no exact ties.
+        (0..n)
+            .map(|i| {
+                let a = i as f64 * 0.618_033_988_75 * std::f64::consts::TAU;
+                let h = (i as f64 * 0.754_877_666).fract() * 0.02;
+                DVec3::new(a.cos() * 0.05, a.sin() * 0.05, h + 0.001 * (3.0 * a).sin())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn incremental_splats_equal_a_full_recompute_after_moves_insertions_and_deletions() {
+        let mut p = ring(20_000);
+        let mut n = vec![DVec3::Z; p.len()];
+        let mut c = vec![[10u8, 20, 30]; p.len()];
+        let mut publisher = PointPublisher::new();
+        let mut inc = SplatCache::new(SplatUpdate::Incremental);
+        let publish = |pb: &mut PointPublisher, p: &[DVec3], n: &[DVec3], c: &[[u8; 3]]| {
+            pb.publish(&[ObjectPoints {
+                positions: p,
+                normals: n,
+                colors: c,
+            }])
+        };
+        let snap = publish(&mut publisher, &p, &n, &c);
+        inc.update(&snap);
+        for round in 0..6 {
+            match round % 3 {
+                // Moves: a bump around one place (and a recolour elsewhere).
+                0 => {
+                    let centre = p[round * 100];
+                    for (i, x) in p.iter_mut().enumerate() {
+                        if x.distance(centre) < 0.008 {
+                            *x += DVec3::Z * 0.002;
+                            publisher.mark(0, i);
+                        }
+                    }
+                    c[777] = [1, 2, 3];
+                    publisher.mark(0, 777);
+                }
+                // Insertions at the end.
+                1 => {
+                    for k in 0..30 {
+                        let x = p[k * 13] + DVec3::new(1e-4, 2e-4, 0.0);
+                        p.push(x);
+                        n.push(DVec3::X);
+                        c.push([0, 0, 0]);
+                        publisher.mark(0, p.len() - 1);
+                    }
+                }
+                // Deletions by swap-remove.
+                _ => {
+                    for k in 0..25 {
+                        let hole = 3 + k * 411;
+                        p.swap_remove(hole);
+                        n.swap_remove(hole);
+                        c.swap_remove(hole);
+                        publisher.mark(0, hole);
+                    }
+                }
+            }
+            let snap = publish(&mut publisher, &p, &n, &c);
+            let work = inc.update(&snap);
+            assert!(work.recomputed < p.len() / 10, "round {round}: {work:?}");
+            let mut full = SplatCache::new(SplatUpdate::Full);
+            full.update(&snap);
+            assert_eq!(inc.current(), full.current(), "round {round}");
+            let radii = splat_radii(&p);
+            assert!(
+                inc.current()
+                    .iter()
+                    .zip(&radii)
+                    .all(|(s, r)| s.radius == *r)
+            );
+        }
+        // Nothing changed: nothing recomputed or rewritten.
+        let snap = publish(&mut publisher, &p, &n, &c);
+        assert_eq!(inc.update(&snap), SplatWork::default());
+    }
 }

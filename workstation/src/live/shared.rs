@@ -6,7 +6,7 @@
 //! | network → force | `Some(HotSender)` after each (re)connect, `None` when the session ends | `rtrb` ring, 4 | full: cannot happen (two per session, taken every tick) |
 //! | force → simulation | [`InputEvent`] (cursor in the scene, buttons, contact, force) | `rtrb` ring, 4096 | full: the event is dropped and counted (the simulation is inside a long operation; it sees a jump when it is back) |
 //! | simulation → force | the field grid snapshot and the [`ForceTool`] | [`ArcSwapOption`] / [`ArcSwap`]: immutable, swapped, never locked against the reader | the force thread always reads the newest; a missing grid means no contact |
-//! | simulation → rendering | [`RenderSnapshot`] | [`ArcSwapOption`] | the renderer draws the newest |
+//! | simulation → rendering | [`RenderSnapshot`] (points in `Arc` chunks, unchanged ones shared with the last snapshot) | [`ArcSwapOption`] | the renderer draws the newest |
 //! | force → anyone | loop statistics, the last force and contact | atomics in [`HapticMonitor`] and [`LoopStats`] | — |
 //!
 //! The force thread's per-tick path takes no lock and allocates nothing on UDP: ring pushes and
@@ -27,6 +27,7 @@ use protocol::{CursorSample, Packet};
 use sim_core::grid::ScalarGrid;
 use sim_core::probe::SampleGrid;
 
+use super::points::ChunkedPoints;
 use super::scene_file::{ContactSpec, ProbeSpec, ToolKind};
 
 /// Capacity of the network → force cursor ring.
@@ -105,12 +106,9 @@ pub enum ForceTool {
 /// Points for the renderer, published by the simulation at the rendering rate.
 #[derive(Debug, Clone, Default)]
 pub struct RenderSnapshot {
-    /// Positions (m).
-    pub positions: Vec<DVec3>,
-    /// Unit normals.
-    pub normals: Vec<DVec3>,
-    /// sRGB colours.
-    pub colors: Vec<[u8; 3]>,
+    /// Positions, unit normals and sRGB colours of the visible objects' points, in chunks
+    /// shared with earlier snapshots where nothing changed.
+    pub points: ChunkedPoints,
     /// The sculpting region box.
     pub region: Option<(DVec3, DVec3)>,
     /// The selected tool.

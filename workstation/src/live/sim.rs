@@ -34,7 +34,7 @@ use glam::DVec3;
 use sim_core::FitParams;
 use sim_core::grid::ScalarGrid;
 use sim_core::probe::{Probe, SampleGrid, SurfaceSample};
-use sim_core::scene::{Scene, SceneObject};
+use sim_core::scene::{ResampleOptions, Scene, SceneObject};
 
 pub use driver::{Reply, SimCommand, SimReport, run};
 pub use edit::MAX_PRIMITIVE_POINTS;
@@ -42,6 +42,7 @@ pub use save::{Saved, save};
 pub use settings::Settings;
 pub use stroke::{MAX_CURVE_POINTS, StrokeReport};
 
+use super::points::{ObjectPoints, PointPublisher};
 use super::scene_file::{SceneFile, ToolKind};
 use super::shared::{InputEvent, RenderSnapshot};
 use stroke::Stroke;
@@ -70,6 +71,9 @@ pub struct SimCore {
     strokes: Vec<StrokeReport>,
     steps: u64,
     probe: Probe,
+    /// The renderer's chunks of the visible objects' points, and what changed since.
+    publisher: PointPublisher,
+    changed: Vec<u32>,
 }
 
 impl std::fmt::Debug for SimCore {
@@ -85,6 +89,7 @@ impl SimCore {
     /// Load and fit the scene's objects and open the sculpting region; relative files resolve
     /// against `dir`.
     pub fn new(file: &SceneFile, dir: PathBuf) -> anyhow::Result<Self> {
+        let started = std::time::Instant::now();
         let fit = FitParams::default();
         let mut scene = Scene::new();
         let mut names = Vec::new();
@@ -100,14 +105,32 @@ impl SimCore {
             .iter()
             .position(|n| *n == region.object)
             .context("region.object")?;
-        let params = crate::sculpt::region_params(region);
+        let spacing = spacings(&scene);
+        let mut params = crate::sculpt::region_params(region);
+        if region.resample != Some(false) {
+            params.resample = Some(ResampleOptions::new(spacing[region_object]));
+        }
+        // Points follow only where the field moved by a visible fraction of their spacing:
+        // the springs' far ripples would otherwise send every point of the region through
+        // the follower at 500 Hz, O(region points) per step (see docs/BENCHMARKS.md, Big scans).
+        params.follow.motion_epsilon = params
+            .follow
+            .motion_epsilon
+            .max(FOLLOW_EPSILON_PER_SPACING * spacing[region_object]);
         let bounds = (DVec3::from(region.min), DVec3::from(region.max));
         scene
             .open_region(region_object, bounds.0, bounds.1, params)
             .context("opening the sculpting region")?;
+        let points: usize = scene.objects().iter().map(|o| o.positions.len()).sum();
+        tracing::info!(
+            points,
+            seconds = started.elapsed().as_secs_f64(),
+            peak_rss_mib = crate::bigscan::peak_rss_kib() / 1024,
+            "scene loaded and fitted"
+        );
         Ok(Self {
             hidden: vec![false; names.len()],
-            spacing: spacings(&scene),
+            spacing,
             scene,
             names,
             region_object,
@@ -128,6 +151,8 @@ impl SimCore {
             steps: 0,
             probe: Probe::ellipsoid(DVec3::from(file.tools.probe.semi_axes))?,
             file: file.clone(),
+            publisher: PointPublisher::new(),
+            changed: Vec::new(),
         })
     }
 
@@ -184,38 +209,96 @@ impl SimCore {
 
     /// Surface samples of the visible objects for the probe (each sample's area from its
     /// object's spacing, measured when the object was made: sculpting barely changes it).
+    /// Scenes of more than [`SAMPLES_ALL_MAX`] points give only the sculpted object's points in
+    /// the region near the cursor (within [`SAMPLES_AROUND_CURSOR_M`] plus the probe's size):
+    /// the probe sculpts only there, and the samples are rebuilt 50 times a second while it
+    /// does. Before the first cursor, the whole region.
     pub fn samples(&self) -> Option<SampleGrid> {
         let mut s = Vec::new();
-        let objects = self.scene.objects().iter().zip(&self.spacing);
-        for ((o, &h), _) in objects.zip(&self.hidden).filter(|(_, hidden)| !**hidden) {
-            s.extend(o.positions.iter().zip(&o.normals).filter_map(|(&p, &n)| {
-                Some(SurfaceSample {
-                    position: p,
-                    normal: n.try_normalize()?,
-                    area: h * h,
-                })
-            }));
+        let reach = DVec3::from(self.file.tools.probe.semi_axes).max_element();
+        let total: usize = self.visible().map(|o| o.positions.len()).sum();
+        let sample = |o: &SceneObject, h: f64, i: usize| {
+            Some(SurfaceSample {
+                position: o.positions[i],
+                normal: o.normals[i].try_normalize()?,
+                area: h * h,
+            })
+        };
+        match self.scene.region() {
+            Some(region) if total > SAMPLES_ALL_MAX => {
+                let (o, h) = (
+                    &self.scene.objects()[region.object()],
+                    self.spacing[region.object()],
+                );
+                let (mut lo, mut hi) = (self.bounds.0 - reach, self.bounds.1 + reach);
+                if let Some(e) = self.last.filter(|e| e.position.is_finite()) {
+                    let r = DVec3::splat(reach + SAMPLES_AROUND_CURSOR_M);
+                    (lo, hi) = (lo.max(e.position - r), hi.min(e.position + r));
+                }
+                // The region's points, plus those within the probe's reach of its box: a scan
+                // of the box's neighbourhood would be O(scene), so the region's list it is.
+                s.extend(
+                    region
+                        .points_inside()
+                        .iter()
+                        .map(|&i| i as usize)
+                        .filter(|&i| {
+                            let p = o.positions[i];
+                            p.cmpge(lo).all() && p.cmple(hi).all()
+                        })
+                        .filter_map(|i| sample(o, h, i)),
+                );
+            }
+            _ => {
+                let objects = self.scene.objects().iter().zip(&self.spacing);
+                for ((o, &h), _) in objects.zip(&self.hidden).filter(|(_, hidden)| !**hidden) {
+                    s.extend((0..o.positions.len()).filter_map(|i| sample(o, h, i)));
+                }
+            }
         }
-        let cell = DVec3::from(self.file.tools.probe.semi_axes).max_element();
-        SampleGrid::new(&s, cell).ok()
+        SampleGrid::new(&s, reach).ok()
     }
 
-    /// Points for the renderer.
-    pub fn render_snapshot(&self) -> RenderSnapshot {
-        let mut r = RenderSnapshot {
+    /// Points for the renderer: chunks holding no point changed since the last snapshot are
+    /// shared with it (the simulation reports the points it moved, appended or refilled).
+    pub fn render_snapshot(&mut self) -> RenderSnapshot {
+        self.changed.clear();
+        if let Some(object) = self.scene.take_changed_points(&mut self.changed) {
+            let slot = self.visible_slot(object);
+            self.publisher
+                .mark_many(slot, self.changed.iter().map(|&i| i as usize));
+        }
+        let objects: Vec<ObjectPoints<'_>> = self
+            .scene
+            .objects()
+            .iter()
+            .zip(&self.hidden)
+            .filter(|(_, h)| !**h)
+            .map(|(o, _)| ObjectPoints {
+                positions: &o.positions,
+                normals: &o.normals,
+                colors: &o.colors,
+            })
+            .collect();
+        RenderSnapshot {
+            points: self.publisher.publish(&objects),
             region: Some(self.bounds),
             tool: Some(self.stroke.as_ref().map_or(self.selected, |s| s.tool)),
             region_object: Some(self.names[self.region_object].clone()),
             probe_semi_axes: Some(DVec3::from(self.file.tools.probe.semi_axes)),
             steps: self.steps,
-            ..Default::default()
-        };
-        for o in self.visible() {
-            r.positions.extend_from_slice(&o.positions);
-            r.normals.extend_from_slice(&o.normals);
-            r.colors.extend_from_slice(&o.colors);
         }
-        r
+    }
+
+    /// Where object `object` is among the visible ones (the publisher's numbering).
+    fn visible_slot(&self, object: usize) -> usize {
+        self.hidden[..object].iter().filter(|h| !**h).count()
+    }
+
+    /// Points changed outside the simulation's reports (an operation, a reopened region):
+    /// the next snapshot copies every chunk.
+    fn points_replaced(&mut self) {
+        self.publisher.mark_all();
     }
 
     /// The tool selected for the next press.
@@ -224,11 +307,25 @@ impl SimCore {
     }
 }
 
-/// The median nearest-neighbour distance of each object's points (m, at least 1 µm).
+/// Above this many visible points, the probe's samples cover only the region's points near
+/// the cursor ([`SimCore::samples`]).
+pub const SAMPLES_ALL_MAX: usize = 50_000;
+
+/// Points follow field changes larger than this fraction of their spacing (the follower's
+/// `motion_epsilon`; a point's error from the zero set stays below twice that).
+pub const FOLLOW_EPSILON_PER_SPACING: f64 = 0.02;
+
+/// Half size of the box around the cursor whose points a big scene's probe samples hold,
+/// beyond the probe's own reach (m): the samples are rebuilt every 20 ms while probing, and
+/// a hand moves far less than this in that time.
+pub const SAMPLES_AROUND_CURSOR_M: f64 = 0.02;
+
+/// The median nearest-neighbour distance of each object's points (m, at least 1 µm), from at
+/// most 20,000 of them.
 fn spacings(scene: &Scene) -> Vec<f64> {
     scene
         .objects()
         .iter()
-        .map(|o| sim_core::resample::spacing(&o.positions).max(1e-6))
+        .map(|o| sim_core::resample::spacing_sampled(&o.positions, 20_000).max(1e-6))
         .collect()
 }

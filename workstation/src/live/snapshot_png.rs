@@ -7,6 +7,7 @@ use anyhow::Context as _;
 use sim_core::io::{self, Format};
 
 use super::frames::FrameMaker;
+use super::points::ChunkedPoints;
 use super::scene_file::RenderSpec;
 use super::shared::{RenderSnapshot, Shared};
 
@@ -55,10 +56,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             args.file.display()
         ),
     };
+    let colors = p.colors.unwrap_or_else(|| vec![[200, 200, 200]; n]);
     let snap = RenderSnapshot {
-        colors: p.colors.unwrap_or_else(|| vec![[200, 200, 200]; n]),
-        positions: p.positions,
-        normals,
+        points: ChunkedPoints::from_slices(&p.positions, &normals, &colors),
         ..Default::default()
     };
     let spec = RenderSpec {

@@ -50,9 +50,11 @@ pub struct ObjectSpec {
 #[derive(Debug, Clone, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Generate {
-    /// `sphere`, `torus`, `plate` or `box`.
+    /// `sphere`, `torus`, `plate`, `box`, or `sample:MESH_FILE` (points on a mesh's triangles,
+    /// the file relative to the script: a dense scan stand-in).
     pub shape: String,
-    /// Sphere radius, torus major radius, plate/box half size (m).
+    /// Sphere radius, torus major radius, plate/box half size, a sampled mesh's longest side
+    /// (m).
     pub size: f64,
     /// Torus minor radius, plate thickness, box rounding (m); unused for spheres.
     #[serde(default)]
@@ -93,6 +95,11 @@ pub struct RegionSpec {
     /// Up-sample around moved points at each stroke end where gaps exceed this (m).
     #[serde(default)]
     pub auto_upsample: Option<f64>,
+    /// Resample the region's points (back onto the surface, crowded ones merged, holes filled,
+    /// normals from the field) after each commit and after CSG and embossing. Live sessions:
+    /// on unless `false`; `sculpt` scripts: off unless `true`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resample: Option<bool>,
 }
 
 fn default_integrator() -> String {

@@ -61,14 +61,16 @@ impl Script {
             match (&o.file, &o.generate) {
                 (Some(_), None) => {}
                 (None, Some(g)) => {
-                    if !["sphere", "torus", "plate", "box"].contains(&g.shape.as_str()) {
+                    let sampled = g.shape.starts_with("sample:");
+                    if !["sphere", "torus", "plate", "box"].contains(&g.shape.as_str()) && !sampled
+                    {
                         return Err(err(
                             f("generate.shape"),
-                            "must be sphere, torus, plate or box",
+                            "must be sphere, torus, plate, box or sample:MESH_FILE",
                         ));
                     }
                     positive(f("generate.size"), g.size)?;
-                    if g.shape != "sphere" {
+                    if g.shape != "sphere" && !sampled {
                         positive(f("generate.size2"), g.size2)?;
                     }
                     if g.shape == "torus" && g.size2 >= g.size {

@@ -19,6 +19,7 @@ use super::stylus::{self, MouseStylus};
 use super::{Exit, Link, Starter};
 use crate::live::Workstation;
 use crate::live::frames::{self, SplatCache};
+use crate::live::points::ChunkedPoints;
 use crate::live::scene_file::ToolKind;
 use crate::live::sim::{Settings, SimCommand};
 
@@ -62,8 +63,8 @@ struct MouseState {
 }
 
 /// The mean of `points`, `None` when there are none.
-fn centroid(points: &[DVec3]) -> Option<DVec3> {
-    (!points.is_empty()).then(|| points.iter().sum::<DVec3>() / points.len() as f64)
+fn centroid(points: &ChunkedPoints) -> Option<DVec3> {
+    (!points.is_empty()).then(|| points.positions().sum::<DVec3>() / points.len() as f64)
 }
 
 pub(super) struct ViewApp {
@@ -255,12 +256,12 @@ impl ViewApp {
             fps: self.fps,
             tool: snap.as_ref().and_then(|s| s.tool).map(ToolKind::name),
             connected: self.link.shared.net.connected.load(Ordering::Relaxed),
-            points: snap.as_ref().map_or(0, |s| s.positions.len()),
+            points: snap.as_ref().map_or(0, |s| s.points.len()),
             tool_buttons: self.tool_rects.iter().map(|(k, r)| (*k, px(r))).collect(),
             view: px(&self.view_rect),
             object_centre: snap
                 .as_ref()
-                .and_then(|s| centroid(&s.positions))
+                .and_then(|s| centroid(&s.points))
                 .and_then(|c| self.seen(c)),
             region_centre: snap
                 .as_ref()
@@ -320,7 +321,7 @@ impl ViewApp {
         } else {
             "waiting for the server …".to_owned()
         });
-        let points = s.render.load().as_ref().map_or(0, |r| r.positions.len());
+        let points = s.render.load().as_ref().map_or(0, |r| r.points.len());
         ui.label(format!(
             "{points} points · {:.0} frames/s · force loop {:.0} Hz · simulation {:.0} Hz",
             self.fps,

@@ -9,7 +9,7 @@ use eframe::egui::{self, PointerButton};
 
 use super::app::ViewApp;
 use super::orbit::Orbit;
-use super::pick::typical_spacing;
+use super::pick::typical_spacing_chunks;
 use super::stylus::{DEPTH_PER_SCROLL_POINT_M, MouseFrame};
 use crate::live::shared::RenderSnapshot;
 
@@ -79,9 +79,9 @@ impl ViewApp {
         let per_m = orbit.metres_per_pixel_per_metre(h);
         // Points are hit within about their spacing (measured when their count changes), and
         // never less than two pixels at the target.
-        let n = snap.positions.len();
+        let n = snap.points.len();
         if self.pick_spacing.is_none_or(|(m, _)| m != n) {
-            self.pick_spacing = typical_spacing(&snap.positions).map(|s| (n, s));
+            self.pick_spacing = typical_spacing_chunks(&snap.points).map(|s| (n, s));
         }
         let spacing = self.pick_spacing.map_or(0.0, |(_, s)| s);
         let frame = MouseFrame {

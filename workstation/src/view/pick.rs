@@ -14,6 +14,8 @@
 use glam::DVec3;
 use sim_core::grid::ScalarGrid;
 
+use crate::live::points::ChunkedPoints;
+
 /// March step, in grid cells (the field is trilinear per cell: half a cell cannot step over a
 /// surface crossing the cell, except a sliver thinner than that).
 pub const MARCH_STEP: f64 = 0.5;
@@ -150,6 +152,40 @@ pub fn pick(
         (Some(f), _) => Some(f),
         (None, p) => p,
     }
+}
+
+/// [`pick`] against a snapshot's chunked points: the nearest hit over the chunks, O(points).
+pub fn pick_chunks(
+    field: Option<&ScalarGrid>,
+    points: &ChunkedPoints,
+    origin: DVec3,
+    dir: DVec3,
+    radius: f64,
+) -> Option<Hit> {
+    let on_field = field.and_then(|g| ray_field(g, origin, dir));
+    let on_points = points
+        .chunks()
+        .iter()
+        .filter_map(|c| ray_points(&c.positions, &c.normals, origin, dir, radius))
+        .min_by(|a, b| a.t.total_cmp(&b.t));
+    match (on_field, on_points) {
+        (Some(f), Some(p)) if p.t < f.t - 2.0 * radius => Some(p),
+        (Some(f), _) => Some(f),
+        (None, p) => p,
+    }
+}
+
+/// [`typical_spacing`] of a snapshot's points from at most 8 chunks spread through them (a
+/// big scan's chunks are spatially ordered patches, so their spacing is the scan's).
+pub fn typical_spacing_chunks(points: &ChunkedPoints) -> Option<f64> {
+    let chunks = points.chunks();
+    let stride = chunks.len().div_ceil(8).max(1);
+    let some: Vec<DVec3> = chunks
+        .iter()
+        .step_by(stride)
+        .flat_map(|c| c.positions.iter().copied())
+        .collect();
+    typical_spacing(&some)
 }
 
 /// A typical spacing of `points` (m): the median, over up to 32 of them spread through the

@@ -27,7 +27,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use sim_core::grid::ScalarGrid;
 
-use super::pick::{Hit, pick};
+use super::pick::{Hit, pick_chunks};
 use crate::live::scene_file::ToolKind;
 use crate::live::shared::RenderSnapshot;
 
@@ -176,10 +176,9 @@ impl MouseStylus {
             Some(h) => (h.field.clone(), Arc::clone(&h.snapshot)),
             None => (f.field.clone(), Arc::clone(&f.snapshot)),
         };
-        self.hit = pick(
+        self.hit = pick_chunks(
             field.as_deref(),
-            &snapshot.positions,
-            &snapshot.normals,
+            &snapshot.points,
             f.origin,
             f.dir,
             f.radius,

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 use glam::DVec3;
 use sim_core::csg::CsgOp;
+use sim_core::scene::ResampleOptions;
 
 use super::{SimCore, spacings};
 use crate::live::scene_file::SceneObjectSpec;
@@ -48,12 +49,24 @@ impl SimCore {
             }
         }
         // Reopened whether or not the operation worked: a failed one leaves the scene as it was.
+        self.params.resample = self
+            .params
+            .resample
+            .map(|_| ResampleOptions::new(self.spacing[self.region_object]));
         self.scene.open_region(
             self.region_object,
             self.bounds.0,
             self.bounds.1,
             self.params,
         )?;
+        // CSG and embossing refit the whole object from new points: resample its region.
+        if let (Ok(_), Some(opts), Op::Csg { .. } | Op::Emboss { .. }) =
+            (&result, self.params.resample, op)
+        {
+            let r = self.scene.resample_region(&opts)?;
+            tracing::debug!(?r, "region resampled after the operation");
+        }
+        self.points_replaced();
         result
     }
 

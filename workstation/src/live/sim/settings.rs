@@ -64,7 +64,11 @@ impl SimCore {
         file.validate()?;
         let probe = Probe::ellipsoid(DVec3::from(file.tools.probe.semi_axes))?;
         let region = file.script().region.context("the scene has no region")?;
-        let params = crate::sculpt::region_params(&region);
+        let params = sim_core::scene::RegionParams {
+            resample: self.params.resample,
+            follow: self.params.follow,
+            ..crate::sculpt::region_params(&region)
+        };
         if Settings::of(&self.file).region_part() != s.region_part() {
             if self.stroke.is_some() {
                 self.release()?;
@@ -73,6 +77,7 @@ impl SimCore {
             self.scene
                 .open_region(self.region_object, self.bounds.0, self.bounds.1, params)?;
             self.params = params;
+            self.points_replaced();
         }
         self.file = file;
         self.probe = probe;

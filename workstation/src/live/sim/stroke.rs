@@ -14,6 +14,7 @@
 
 use glam::DVec3;
 use sim_core::probe::ProbePose;
+use sim_core::scene::ResampleReport;
 use sim_core::tools::paint::{Brush, paint};
 use sim_core::tools::{GridTool, ProbeMode, ProbeSculpt, Profile, Rope};
 
@@ -40,6 +41,8 @@ pub struct StrokeReport {
     pub painted: usize,
     /// Largest force felt (N).
     pub max_force_n: f64,
+    /// What resampling the region did at the commit.
+    pub resampled: ResampleReport,
     /// One line for people.
     pub summary: String,
 }
@@ -219,6 +222,10 @@ impl SimCore {
                 .fold(0.0, |a: f64, u| a.max(u.abs()))
         });
         let refitted = self.scene.end_stroke()?;
+        let resampled = self
+            .scene
+            .region()
+            .map_or_else(ResampleReport::default, |r| r.last_resample());
         let painted = match s.active {
             Active::Paint { painted } => painted,
             _ => 0,
@@ -231,10 +238,13 @@ impl SimCore {
             ),
             ToolKind::Touch => format!("touched for {} steps, up to {:.2} N", s.steps, s.max_force),
             _ => format!(
-                "{} steps, field changed by up to {:.2} mm and committed at release, {refitted} local fields refitted, up to {:.2} N felt",
+                "{} steps, field changed by up to {:.2} mm and committed at release, {refitted} local fields refitted, up to {:.2} N felt; resampled: {} inserted, {} removed, {} projected",
                 s.steps,
                 committed * 1e3,
-                s.max_force
+                s.max_force,
+                resampled.inserted,
+                resampled.removed,
+                resampled.projected
             ),
         };
         self.strokes.push(StrokeReport {
@@ -244,6 +254,7 @@ impl SimCore {
             committed_displacement_m: committed,
             painted,
             max_force_n: s.max_force,
+            resampled,
             summary,
         });
         Ok(())
@@ -253,6 +264,7 @@ impl SimCore {
     pub fn step(&mut self, dt: f64) -> anyhow::Result<()> {
         let t = self.file.tools.clone();
         let cursor = self.last;
+        let paint_slot = self.visible_slot(self.region_object);
         let mut tool: Option<&dyn GridTool> = None;
         if let (Some(s), Some(e)) = (&mut self.stroke, cursor) {
             s.steps += 1;
@@ -307,6 +319,28 @@ impl SimCore {
                         let r =
                             paint(&brush, c, e.force.length(), &obj.positions, &mut obj.colors)?;
                         *painted += r.painted;
+                        // Tell the renderer's snapshots which points may have changed colour:
+                        // the region's points when the brush is inside its box, else all.
+                        let obj = &self.scene.objects()[self.region_object];
+                        let (lo, hi) = (c - r.radius, c + r.radius);
+                        let near = |i: usize| obj.positions[i].distance(c) <= r.radius;
+                        match self.scene.region() {
+                            Some(reg)
+                                if lo.cmpge(self.bounds.0).all()
+                                    && hi.cmple(self.bounds.1).all() =>
+                            {
+                                let near = reg
+                                    .points_inside()
+                                    .iter()
+                                    .map(|&i| i as usize)
+                                    .filter(|&i| near(i));
+                                self.publisher.mark_many(paint_slot, near);
+                            }
+                            _ => {
+                                let near = (0..obj.positions.len()).filter(|&i| near(i));
+                                self.publisher.mark_many(paint_slot, near);
+                            }
+                        }
                     }
                 }
                 Active::Probe(p) => {
