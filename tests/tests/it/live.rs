@@ -115,7 +115,7 @@ stroke = { tool = "paint", path = [[0.025, 0.025, 0.035], [0.0, 0.028, 0.040], [
     assert_eq!(phases.len(), 2);
     // The rope let go more than a second ago (paint stroke + rests): the bump must still be
     // there, committed, not sprung back.
-    let core = ws.finish().unwrap();
+    let mut core = ws.finish().unwrap();
     let ball = &core.scene().objects()[0];
     let (mut bump, mut elsewhere) = (0.0f64, 0.0f64);
     for p in &ball.positions {
