@@ -169,6 +169,11 @@ pub struct Region {
 }
 
 impl Region {
+    /// Replace the resampling a commit does ([`RegionParams::resample`]; `None`: none).
+    pub fn set_resample(&mut self, resample: Option<ResampleOptions>) {
+        self.params.resample = resample;
+    }
+
     /// What the last commit's resampling did.
     pub fn last_resample(&self) -> ResampleReport {
         self.last_resample
