@@ -164,7 +164,10 @@ mod tests {
     #[test]
     fn ping_pong_against_the_reflector_answers_every_ping() {
         let r = Reflector::start(([127, 0, 0, 1], 0).into()).unwrap();
-        let p = ping_pong(r.addr(), 118, 500, Duration::from_millis(200), |_| {}).unwrap();
+        // An echo later than the next send counts as lost, so on a loaded machine (the test
+        // suite runs beside this) a fast rate would count scheduling stalls as loss: at 50 Hz
+        // each echo has 20 ms, and only a datagram really lost on loopback counts.
+        let p = ping_pong(r.addr(), 118, 50, Duration::from_secs(2), |_| {}).unwrap();
         assert!(p.sent >= 50, "{p:?}");
         assert!(p.lost <= 2, "loopback loses nothing: {p:?}");
         assert_eq!(p.rtt_ns.len() as u64, p.sent - p.lost);
