@@ -99,31 +99,17 @@ pub struct Library {
 /// Load `library` (a name the loader searches, or a path) and check it exports [`REQUIRED`].
 /// Errors name the file names looked for and where, or the missing functions.
 pub fn load(library: &str) -> Result<Library, DeviceError> {
-    // SAFETY: loading runs the library's initialisers; the DHD library (or its stand-in) is a
-    // C/C++ library whose initialisers have no preconditions on us.
-    let lib = unsafe { libloading::Library::new(library) }.map_err(|e| {
-        let why = library::search(library).explain(
-            &e.to_string(),
-            "device.dhd.library",
-            "--dhd-library",
-            INSTALL_HINT,
-        );
-        DeviceError::Missing(format!(
-            "cannot load the Force Dimension DHD library {library:?}: {why}"
-        ))
-    })?;
-    let missing: Vec<&str> = REQUIRED
-        .iter()
-        // SAFETY: only the symbol's presence is checked; the pointer is not used.
-        .filter(|name| unsafe { lib.get::<*const c_void>(name.as_bytes()) }.is_err())
-        .copied()
-        .collect();
-    if !missing.is_empty() {
-        return Err(DeviceError::Missing(format!(
-            "{library:?} loads but lacks {} (an SDK older than 3.2?)",
-            missing.join(", ")
-        )));
-    }
+    let lib = library::open(
+        library,
+        &REQUIRED,
+        &library::Vendor {
+            what: "the Force Dimension DHD library",
+            config_key: "device.dhd.library",
+            flag: "--dhd-library",
+            install_hint: INSTALL_HINT,
+            missing_hint: " (an SDK older than 3.2?)",
+        },
+    )?;
     macro_rules! sym {
         ($name:literal) => {
             // SAFETY: every required name was found above; the types match dhdc.h.

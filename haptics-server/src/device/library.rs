@@ -215,6 +215,55 @@ pub fn loaded_path(lib: &libloading::Library, symbol: &str) -> Option<PathBuf> {
     Some(PathBuf::from(name.to_string_lossy().into_owned()))
 }
 
+/// A vendor library named in a device config, loaded at run time.
+#[derive(Debug, Clone, Copy)]
+pub struct Vendor<'a> {
+    /// What it is, e.g. "the OpenHaptics HD library".
+    pub what: &'a str,
+    /// The config key that names it, e.g. `device.openhaptics.library`.
+    pub config_key: &'a str,
+    /// The command-line flag that names it.
+    pub flag: &'a str,
+    /// How to install it.
+    pub install_hint: &'a str,
+    /// Said after the missing functions (e.g. a likely SDK version), or "".
+    pub missing_hint: &'a str,
+}
+
+/// Load `library` and check that it has every `required` symbol. Errors name the file names
+/// looked for and where ([`search`]), or the missing functions.
+pub fn open(
+    library: &str,
+    required: &[&str],
+    vendor: &Vendor<'_>,
+) -> Result<libloading::Library, super::DeviceError> {
+    // SAFETY: loading runs the library's initialisers; the vendor libraries (and the tests'
+    // stand-ins) are C/C++ libraries whose initialisers have no preconditions on us.
+    let lib = unsafe { libloading::Library::new(library) }.map_err(|e| {
+        let why = search(library).explain(
+            &e.to_string(),
+            vendor.config_key,
+            vendor.flag,
+            vendor.install_hint,
+        );
+        super::DeviceError::Missing(format!("cannot load {} {library:?}: {why}", vendor.what))
+    })?;
+    let missing: Vec<&str> = required
+        .iter()
+        // SAFETY: only the symbol's presence is checked; the pointer is not used.
+        .filter(|name| unsafe { lib.get::<*const std::ffi::c_void>(name.as_bytes()) }.is_err())
+        .copied()
+        .collect();
+    if !missing.is_empty() {
+        return Err(super::DeviceError::Missing(format!(
+            "{library:?} loads but lacks {}{}",
+            missing.join(", "),
+            vendor.missing_hint
+        )));
+    }
+    Ok(lib)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

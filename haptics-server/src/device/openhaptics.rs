@@ -78,31 +78,17 @@ struct Api {
 }
 
 fn load(library: &str) -> Result<(libloading::Library, Api), DeviceError> {
-    // SAFETY: loading runs the library's initialisers; the HD library (or its stand-in) is a
-    // plain C library whose initialisers have no preconditions on us.
-    let lib = unsafe { libloading::Library::new(library) }.map_err(|e| {
-        let why = super::library::search(library).explain(
-            &e.to_string(),
-            "device.openhaptics.library",
-            "--openhaptics-library",
-            INSTALL_HINT,
-        );
-        DeviceError::Missing(format!(
-            "cannot load the OpenHaptics HD library {library:?}: {why}"
-        ))
-    })?;
-    let missing: Vec<&str> = REQUIRED
-        .iter()
-        // SAFETY: only the symbol's presence is checked; the pointer is not used.
-        .filter(|name| unsafe { lib.get::<*const c_void>(name.as_bytes()) }.is_err())
-        .copied()
-        .collect();
-    if !missing.is_empty() {
-        return Err(DeviceError::Missing(format!(
-            "{library:?} loads but lacks {}",
-            missing.join(", ")
-        )));
-    }
+    let lib = super::library::open(
+        library,
+        &REQUIRED,
+        &super::library::Vendor {
+            what: "the OpenHaptics HD library",
+            config_key: "device.openhaptics.library",
+            flag: "--openhaptics-library",
+            install_hint: INSTALL_HINT,
+            missing_hint: "",
+        },
+    )?;
     macro_rules! sym {
         ($name:literal) => {
             // SAFETY: every name was found above; the types match the HD headers
