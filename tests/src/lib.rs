@@ -84,3 +84,23 @@ impl Drop for ChildGuard {
 pub fn loopback(port: u16) -> SocketAddr {
     SocketAddr::from(([127, 0, 0, 1], port))
 }
+
+/// Who may run beside whom on a 2-core test machine.
+///
+/// Tests whose assertions need a 1 kHz loop to keep time (forces felt, rates kept, round trips
+/// through a delaying relay) take [`wall_clock_slot`]: they run alone among the tests that take
+/// a slot. Tests that only load the processors (software rendering, the window under Xvfb) take
+/// [`busy_slot`]: they run beside each other but never beside a wall-clock test. A loaded CI
+/// machine otherwise starves a servo loop and a correct program fails a timing assertion.
+static SLOTS: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+/// Exclusive: held for the whole of a test whose assertions depend on wall-clock timing.
+pub fn wall_clock_slot() -> std::sync::RwLockWriteGuard<'static, ()> {
+    // A failed test poisons the lock; the next one still runs (the failure is already reported).
+    SLOTS.write().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Shared: held by a test that keeps the processors busy but asserts nothing about timing.
+pub fn busy_slot() -> std::sync::RwLockReadGuard<'static, ()> {
+    SLOTS.read().unwrap_or_else(|e| e.into_inner())
+}

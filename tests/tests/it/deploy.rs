@@ -518,6 +518,7 @@ fn is_root() -> bool {
 
 #[test]
 fn the_netem_script_builds_two_hosts_with_the_round_trip_and_removes_them() {
+    let _slot = e2e_tests::wall_clock_slot();
     let missing: Vec<&str> = ["ip", "tc", "ping"]
         .into_iter()
         .filter(|t| !on_path(t))
@@ -620,6 +621,7 @@ fn the_netem_script_builds_two_hosts_with_the_round_trip_and_removes_them() {
 /// trip and 5 ms one way each direction, within the run's own bound.
 #[test]
 fn a_latency_run_through_netem_reproduces_the_configured_delay() {
+    let _slot = e2e_tests::wall_clock_slot();
     if !is_root() || !on_path("ip") || !on_path("tc") {
         eprintln!("skipped: latency through netem: needs root, ip and tc (Debian iproute2)");
         return;

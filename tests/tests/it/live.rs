@@ -96,6 +96,7 @@ fn wait_for(what: &str, timeout: Duration, mut ok: impl FnMut() -> bool) {
 
 #[test]
 fn a_rope_pull_and_a_painted_stroke_over_the_network_last_and_show() {
+    let _slot = e2e_tests::wall_clock_slot();
     let scene = scene(
         TOP_HALF,
         r#"
@@ -183,6 +184,7 @@ stroke = { tool = "paint", path = [[0.025, 0.025, 0.035], [0.0, 0.028, 0.040], [
 
 #[test]
 fn the_shaped_probe_carves_a_dent_and_pulls_material_out_from_inside() {
+    let _slot = e2e_tests::wall_clock_slot();
     let scene = scene(
         TOP_HALF,
         r#"
@@ -221,11 +223,13 @@ stroke = { tool = "probe_pull", path = [[-0.02, 0.040, -0.02], [-0.026, 0.052, -
 
 #[test]
 fn the_force_felt_pressing_a_sphere_is_stiffness_times_depth_over_udp() {
+    let _slot = e2e_tests::wall_clock_slot();
     force_is_stiffness_times_depth(TransportKind::Udp);
 }
 
 #[test]
 fn the_force_felt_pressing_a_sphere_is_stiffness_times_depth_over_quic() {
+    let _slot = e2e_tests::wall_clock_slot();
     force_is_stiffness_times_depth(TransportKind::Quic);
 }
 
@@ -273,6 +277,7 @@ fn force_is_stiffness_times_depth(transport: TransportKind) {
 
 #[test]
 fn the_force_loop_keeps_the_cursor_rate_while_the_simulation_steps_slowly() {
+    let _slot = e2e_tests::wall_clock_slot();
     // A fine region over the whole ball: ~200k simulated nodes, a step of many milliseconds.
     let heavy = "min = [-0.056, -0.056, -0.056]\nmax = [0.056, 0.056, 0.056]\nspacing = 0.0012\nband = 0.006";
     let scene = scene(heavy, "");
@@ -315,6 +320,7 @@ fn the_force_loop_keeps_the_cursor_rate_while_the_simulation_steps_slowly() {
 
 #[test]
 fn the_workstation_reconnects_when_the_server_restarts() {
+    let _slot = e2e_tests::wall_clock_slot();
     let port = free_port();
     let mut opts = ServerOptions::for_tests(TransportKind::Udp).unwrap();
     opts.listen = loopback(port);
@@ -353,6 +359,7 @@ fn write_scene(dir: &Path) -> std::path::PathBuf {
 
 #[test]
 fn a_killed_workstation_process_fades_to_zero_and_the_next_is_accepted() {
+    let _slot = e2e_tests::wall_clock_slot();
     let dir = tempfile::tempdir().unwrap();
     let opts = ServerOptions::for_tests(TransportKind::Udp).unwrap();
     let (cert, key) = (dir.path().join("cert.pem"), dir.path().join("key.pem"));

@@ -46,6 +46,7 @@ fn png_summary(path: &Path) -> (u32, u32, usize) {
 
 #[test]
 fn the_demo_runs_and_writes_its_frames_without_a_vulkan_driver() {
+    let _slot = e2e_tests::busy_slot();
     let dir = tempfile::tempdir().unwrap();
     let out = without_vulkan(&["demo", "--no-window", "--out", "out"], dir.path());
     let log = text(&out);
@@ -92,6 +93,7 @@ fn the_demo_runs_and_writes_its_frames_without_a_vulkan_driver() {
 
 #[test]
 fn render_draws_a_saved_model_on_the_cpu_without_a_vulkan_driver() {
+    let _slot = e2e_tests::busy_slot();
     let dir = tempfile::tempdir().unwrap();
     let model = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/bunny.ply");
     let out = without_vulkan(&["render", model, "-o", "bunny.png"], dir.path());

@@ -166,6 +166,7 @@ fn state(path: &Path) -> Option<serde_json::Value> {
 
 #[test]
 fn the_window_shows_the_object_and_the_panel_in_its_own_pixels() {
+    let _slot = e2e_tests::busy_slot();
     let x = Xvfb::start();
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("window.png");
@@ -227,6 +228,7 @@ fn the_window_shows_the_object_and_the_panel_in_its_own_pixels() {
 
 #[test]
 fn a_click_on_a_tool_button_selects_it_and_the_probe_follows_the_mouse() {
+    let _slot = e2e_tests::busy_slot();
     let x = Xvfb::start();
     let dir = tempfile::tempdir().unwrap();
     let state_file = dir.path().join("state.json");
@@ -340,6 +342,7 @@ fn a_click_on_a_tool_button_selects_it_and_the_probe_follows_the_mouse() {
 
 #[test]
 fn the_demo_opens_the_window_when_a_display_is_present_and_it_stays_on_the_result() {
+    let _slot = e2e_tests::busy_slot();
     let x = Xvfb::start();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
@@ -485,6 +488,7 @@ fn drag(x: &Xvfb, from: (f64, f64), to: (f64, f64), hold: Duration) {
 
 #[test]
 fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
+    let _slot = e2e_tests::busy_slot();
     let x = Xvfb::start();
     let dir = tempfile::tempdir().unwrap();
     let state_file = dir.path().join("state.json");
