@@ -244,6 +244,12 @@ impl GlobalField {
         self.value_and_gradient_over::<false>(x, supports).0
     }
 
+    /// [`GlobalField::value_and_gradient`] with the supports taken from a list gathered for a
+    /// box ([`GlobalField::gather_supports`]): equal, bit for bit, for every `x` in that box.
+    pub fn value_and_gradient_near(&self, x: DVec3, supports: &SupportList) -> (f64, DVec3) {
+        self.value_and_gradient_over::<true>(x, supports)
+    }
+
     /// `f` and, with `GRAD`, `∇f` (else the gradient is meaningless where the blend defines f).
     fn value_and_gradient_over<const GRAD: bool>(
         &self,
@@ -400,13 +406,23 @@ impl GlobalField {
     /// every point near them). A sampled surface passes all three: it lies within half a
     /// spacing of a sample and near its neighbours' planes. Allocation-free.
     pub fn is_trusted(&self, x: DVec3) -> bool {
+        self.is_trusted_over(x, &self.inner.grid)
+    }
+
+    /// [`GlobalField::is_trusted`] with the supports taken from a list gathered for a box
+    /// ([`GlobalField::gather_supports`]): the same answer for every `x` in that box.
+    pub fn is_trusted_near(&self, x: DVec3, supports: &SupportList) -> bool {
+        self.is_trusted_over(x, supports)
+    }
+
+    fn is_trusted_over(&self, x: DVec3, supports: &impl Supports) -> bool {
         if !x.is_finite() {
             return false;
         }
         let d = &*self.inner;
         let tau2 = d.params.trust * d.params.trust;
         let (mut weight_sum, mut vouching, mut off_plane) = (0.0, 0.0, 0.0);
-        d.grid.for_each_containing(x, |i, rel, dist2| {
+        supports.for_each_containing(x, |i, rel, dist2| {
             let r2 = d.support[i] * d.support[i];
             let phi = weight((dist2 / r2).sqrt()).0;
             weight_sum += phi;

@@ -12,13 +12,14 @@
 //! Contract: vertices are finite; deterministic for a field and grid.
 
 use std::collections::HashMap;
+use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
-use crate::projection::{ProjectOptions, project_to_zero_set_with};
+use crate::projection::{ProjectOptions, project_to_zero_set_near};
 use crate::sparse::{
     BLOCK, BlockKey, all_blocks, block_dims, block_nodes, blocks_near, gather_block, sample_block,
     sample_block_pruned,
@@ -103,8 +104,29 @@ pub fn extract_zero_set_dense(
     extract_blocks(field, &spec, &all_blocks(&spec), None).0
 }
 
+/// Where a meshing run's time went, s. The parallel phases are summed over the worker
+/// threads (processor time), so they add up to about `threads × wall` of their part.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct MeshTimings {
+    /// Whole run, wall clock.
+    pub wall_s: f64,
+    /// Gathering each block's supporting points (parallel).
+    pub gather_s: f64,
+    /// Evaluating the field at the block's nodes, with octree pruning (parallel).
+    pub sample_s: f64,
+    /// Scanning cells for sign changes and placing first guesses (parallel).
+    pub cells_s: f64,
+    /// Trust tests of the first guesses (parallel).
+    pub trust_s: f64,
+    /// Newton projections of the trusted guesses onto the zero set (parallel).
+    pub project_s: f64,
+    /// Joining the blocks' vertices into quads (one thread). Vertex normals come from the
+    /// gradient the projection ended with, at no extra cost.
+    pub stitch_s: f64,
+}
+
 /// What a meshing run evaluated.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct MeshStats {
     /// Grid-node field evaluations (octree probes and the nodes of the cells near the zero set;
     /// a node on a shared block face counts once per block).
@@ -115,6 +137,12 @@ pub struct MeshStats {
     pub blocks_near: usize,
     /// Of those, blocks that hold part of the mesh.
     pub blocks_meshed: usize,
+    /// Cells with a sign change whose first guess was trusted and projected.
+    pub projections: usize,
+    /// Newton steps those projections took in all.
+    pub newton_steps: usize,
+    /// Where the time went.
+    pub timings: MeshTimings,
 }
 
 /// [`extract_zero_set`], also saying what it evaluated.
@@ -132,10 +160,15 @@ pub fn extract_zero_set_with_stats(
 struct MeshBlock {
     key: BlockKey,
     values: Vec<f64>,
-    /// Local cell index → vertex position.
-    vertices: Vec<(u32, DVec3)>,
+    /// Local cell index → vertex position and the field's gradient there.
+    vertices: Vec<(u32, DVec3, DVec3)>,
     /// Field evaluations made for it.
     evaluations: usize,
+    /// Projections and Newton steps made for it.
+    projections: usize,
+    newton_steps: usize,
+    /// Processor time of its phases, ns: gather, sample, cells, trust, project.
+    ns: [u64; 5],
 }
 
 /// Mesh `blocks`; with `prune`, evaluate only the octree boxes that can hold a sign change.
@@ -145,75 +178,138 @@ fn extract_blocks(
     blocks: &[BlockKey],
     prune: Option<f64>,
 ) -> (TriMesh, MeshStats) {
+    let started = Instant::now();
     let h = spec.spacing;
     let opts = ProjectOptions::default();
     let evaluated: Vec<MeshBlock> = blocks
         .par_iter()
-        .map_init(SupportList::new, |supports, &key| {
-            gather_block(field, spec, key, supports);
-            let mut values = Vec::new();
-            let evaluations = match prune {
-                Some(lipschitz) => {
-                    sample_block_pruned(field, spec, key, supports, lipschitz, &mut values)
-                }
-                None => {
-                    sample_block(field, spec, key, supports, |_, f| f, &mut values);
-                    values.len()
-                }
-            };
-            let (first, count) = block_nodes(spec, key);
-            let at = |i: usize, j: usize, k: usize| values[(k * count[1] + j) * count[0] + i];
-            let mut vertices = Vec::new();
-            for k in 0..count[2] - 1 {
-                for j in 0..count[1] - 1 {
-                    for i in 0..count[0] - 1 {
-                        let mut corner = [0.0; 8];
-                        for (c, v) in corner.iter_mut().enumerate() {
-                            *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
-                        }
-                        if corner.iter().any(|f| f.is_nan()) {
-                            continue; // pruned: no sign change here
-                        }
-                        let (mut sum, mut n) = (DVec3::ZERO, 0.0);
-                        for (a, b) in CUBE_EDGES {
-                            let (fa, fb) = (corner[a], corner[b]);
-                            if (fa < 0.0) != (fb < 0.0) {
-                                let t = fa / (fa - fb);
-                                let pa = corner_offset(a);
-                                sum += pa + (corner_offset(b) - pa) * t;
-                                n += 1.0;
+        .map_init(
+            || (SupportList::new(), SupportList::new()),
+            |(supports, near_cell), &key| {
+                let t0 = Instant::now();
+                gather_block(field, spec, key, supports);
+                let t1 = Instant::now();
+                let mut values = Vec::new();
+                let evaluations = match prune {
+                    Some(lipschitz) => {
+                        sample_block_pruned(field, spec, key, supports, lipschitz, &mut values)
+                    }
+                    None => {
+                        sample_block(field, spec, key, supports, |_, f| f, &mut values);
+                        values.len()
+                    }
+                };
+                let t2 = Instant::now();
+                let (first, count) = block_nodes(spec, key);
+                let block_box = (
+                    spec.node_position(first[0], first[1], first[2]),
+                    spec.node_position(
+                        first[0] + count[0] - 1,
+                        first[1] + count[1] - 1,
+                        first[2] + count[2] - 1,
+                    ),
+                );
+                let at = |i: usize, j: usize, k: usize| values[(k * count[1] + j) * count[0] + i];
+                let mut vertices = Vec::new();
+                let (mut trust_ns, mut project_ns, mut projections, mut newton_steps) =
+                    (0, 0, 0, 0);
+                for k in 0..count[2] - 1 {
+                    for j in 0..count[1] - 1 {
+                        for i in 0..count[0] - 1 {
+                            let mut corner = [0.0; 8];
+                            for (c, v) in corner.iter_mut().enumerate() {
+                                *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
                             }
+                            if corner.iter().any(|f| f.is_nan()) {
+                                continue; // pruned: no sign change here
+                            }
+                            let (mut sum, mut n) = (DVec3::ZERO, 0.0);
+                            for (a, b) in CUBE_EDGES {
+                                let (fa, fb) = (corner[a], corner[b]);
+                                if (fa < 0.0) != (fb < 0.0) {
+                                    let t = fa / (fa - fb);
+                                    let pa = corner_offset(a);
+                                    sum += pa + (corner_offset(b) - pa) * t;
+                                    n += 1.0;
+                                }
+                            }
+                            if n == 0.0 {
+                                continue;
+                            }
+                            let guess =
+                                spec.node_position(first[0] + i, first[1] + j, first[2] + k)
+                                    + sum / n * h;
+                            let ta = Instant::now();
+                            // The cell and a cell around it: where the guess and, nearly always,
+                            // the projection's iterates lie (outside it they use the index).
+                            // Kept inside the block, the box `supports` was gathered for.
+                            let cell_lo =
+                                spec.node_position(first[0] + i, first[1] + j, first[2] + k);
+                            let reach = (
+                                (cell_lo - DVec3::splat(h)).max(block_box.0),
+                                (cell_lo + DVec3::splat(2.0 * h)).min(block_box.1),
+                            );
+                            supports.narrow_to(reach.0, reach.1, near_cell);
+                            let trusted =
+                                if guess.cmpge(reach.0).all() && guess.cmple(reach.1).all() {
+                                    field.is_trusted_near(guess, near_cell)
+                                } else {
+                                    field.is_trusted(guess)
+                                };
+                            let tb = Instant::now();
+                            trust_ns += nanos(tb - ta);
+                            if !trusted {
+                                continue;
+                            }
+                            let pr =
+                                project_to_zero_set_near(field, guess, &opts, near_cell, reach);
+                            project_ns += nanos(tb.elapsed());
+                            projections += 1;
+                            newton_steps += pr.iterations as usize;
+                            let ok =
+                                pr.converged && (pr.point - guess).length() < 2.0 * h && pr.trusted;
+                            let local = ((k * BLOCK + j) * BLOCK + i) as u32;
+                            vertices.push(if ok {
+                                (local, pr.point, pr.gradient)
+                            } else {
+                                (local, guess, field.value_and_gradient(guess).1)
+                            });
                         }
-                        if n == 0.0 {
-                            continue;
-                        }
-                        let guess = spec.node_position(first[0] + i, first[1] + j, first[2] + k)
-                            + sum / n * h;
-                        if !field.is_trusted(guess) {
-                            continue;
-                        }
-                        let pr = project_to_zero_set_with(field, guess, &opts);
-                        let ok =
-                            pr.converged && (pr.point - guess).length() < 2.0 * h && pr.trusted;
-                        let local = ((k * BLOCK + j) * BLOCK + i) as u32;
-                        vertices.push((local, if ok { pr.point } else { guess }));
                     }
                 }
-            }
-            MeshBlock {
-                key,
-                values,
-                vertices,
-                evaluations,
-            }
-        })
+                let cells_ns = nanos(t2.elapsed()).saturating_sub(trust_ns + project_ns);
+                MeshBlock {
+                    key,
+                    values,
+                    vertices,
+                    evaluations,
+                    projections,
+                    newton_steps,
+                    ns: [
+                        nanos(t1 - t0),
+                        nanos(t2 - t1),
+                        cells_ns,
+                        trust_ns,
+                        project_ns,
+                    ],
+                }
+            },
+        )
         .collect();
-    let stats = MeshStats {
+    let stitch_started = Instant::now();
+    let mut stats = MeshStats {
         evaluations: evaluated.iter().map(|b| b.evaluations).sum(),
         box_nodes: spec.node_count(),
         blocks_near: blocks.len(),
         blocks_meshed: evaluated.iter().filter(|b| !b.vertices.is_empty()).count(),
+        projections: evaluated.iter().map(|b| b.projections).sum(),
+        newton_steps: evaluated.iter().map(|b| b.newton_steps).sum(),
+        timings: MeshTimings::default(),
     };
+    let phase_s = |i: usize| evaluated.iter().map(|b| b.ns[i]).sum::<u64>() as f64 * 1e-9;
+    let t = &mut stats.timings;
+    (t.gather_s, t.sample_s, t.cells_s, t.trust_s, t.project_s) =
+        (phase_s(0), phase_s(1), phase_s(2), phase_s(3), phase_s(4));
 
     let mut mesh = TriMesh::default();
     let [bx, by, _] = block_dims(spec);
@@ -224,9 +320,11 @@ fn extract_blocks(
     for (s, b) in evaluated.iter().enumerate() {
         slot.insert(block_key(b.key), s);
         let mut cell_ids = vec![u32::MAX; BLOCK * BLOCK * BLOCK];
-        for &(local, p) in &b.vertices {
+        for &(local, p, gradient) in &b.vertices {
             cell_ids[local as usize] = mesh.vertices.len() as u32;
             mesh.vertices.push(p);
+            mesh.normals
+                .push(gradient.try_normalize().unwrap_or(DVec3::Z));
         }
         ids.push(cell_ids);
     }
@@ -287,18 +385,13 @@ fn extract_blocks(
             }
         }
     }
-    mesh.normals = mesh
-        .vertices
-        .par_iter()
-        .map(|&p| {
-            field
-                .value_and_gradient(p)
-                .1
-                .try_normalize()
-                .unwrap_or(DVec3::Z)
-        })
-        .collect();
+    stats.timings.stitch_s = stitch_started.elapsed().as_secs_f64();
+    stats.timings.wall_s = started.elapsed().as_secs_f64();
     (mesh, stats)
+}
+
+fn nanos(d: std::time::Duration) -> u64 {
+    d.as_nanos() as u64
 }
 
 const CUBE_EDGES: [(usize, usize); 12] = [

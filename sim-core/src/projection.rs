@@ -8,7 +8,7 @@
 
 use glam::DVec3;
 
-use crate::field::GlobalField;
+use crate::field::{GlobalField, SupportList};
 
 /// Settings of [`project_to_zero_set_with`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,6 +38,8 @@ pub struct Projection {
     pub point: DVec3,
     /// `f` at `point`.
     pub value: f64,
+    /// `∇f` at `point` (what a caller wanting the surface normal there would compute again).
+    pub gradient: DVec3,
     /// Newton steps taken.
     pub iterations: u32,
     /// Whether `|f|` reached the tolerance.
@@ -57,15 +59,67 @@ impl GlobalField {
 
 /// Project `x` onto `f = 0` with explicit options.
 pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOptions) -> Projection {
+    project_over(
+        field,
+        x,
+        opt,
+        |p| field.value_and_gradient(p),
+        |p| field.is_trusted(p),
+    )
+}
+
+/// [`project_to_zero_set_with`] evaluating the field with `supports`, a list gathered for the
+/// box `[lo, hi]` ([`GlobalField::gather_supports`]), while the iterate stays in that box, and
+/// with the field's own index outside it: the same result, bit for bit, without the index
+/// lookups where the projection is short (a mesh vertex moving within its cell).
+pub fn project_to_zero_set_near(
+    field: &GlobalField,
+    x: DVec3,
+    opt: &ProjectOptions,
+    supports: &SupportList,
+    (lo, hi): (DVec3, DVec3),
+) -> Projection {
+    let inside = |p: DVec3| p.cmpge(lo).all() && p.cmple(hi).all();
+    project_over(
+        field,
+        x,
+        opt,
+        |p| {
+            if inside(p) {
+                field.value_and_gradient_near(p, supports)
+            } else {
+                field.value_and_gradient(p)
+            }
+        },
+        |p| {
+            if inside(p) {
+                field.is_trusted_near(p, supports)
+            } else {
+                field.is_trusted(p)
+            }
+        },
+    )
+}
+
+/// Newton's iteration along the gradient with one backtracking halving per step, evaluating
+/// with `eval` and judging the end point with `trusted`.
+fn project_over(
+    field: &GlobalField,
+    x: DVec3,
+    opt: &ProjectOptions,
+    eval: impl Fn(DVec3) -> (f64, DVec3),
+    trusted: impl Fn(DVec3) -> bool,
+) -> Projection {
     let tol = opt.tolerance * field.scale();
     let max_step = opt.max_step * field.scale();
     let mut p = x;
-    let (mut f, mut g) = field.value_and_gradient(p);
+    let (mut f, mut g) = eval(p);
     if !x.is_finite() {
         // No point of the zero set is nearer a NaN or infinite start than another.
         return Projection {
             point: x,
             value: f,
+            gradient: g,
             iterations: 0,
             converged: false,
             trusted: false,
@@ -76,9 +130,10 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
             return Projection {
                 point: p,
                 value: f,
+                gradient: g,
                 iterations: it,
                 converged: true,
-                trusted: field.is_trusted(p),
+                trusted: trusted(p),
             };
         }
         let g2 = g.length_squared();
@@ -94,11 +149,11 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
             step *= max_step / len;
         }
         let q = p - step;
-        let (fq, gq) = field.value_and_gradient(q);
+        let (fq, gq) = eval(q);
         // Backtrack once if the step overshot into a larger residual.
         if fq.abs() > f.abs() {
             let half = p - step * 0.5;
-            let (fh, gh) = field.value_and_gradient(half);
+            let (fh, gh) = eval(half);
             if fh.abs() < fq.abs() {
                 (p, f, g) = (half, fh, gh);
                 continue;
@@ -110,8 +165,9 @@ pub fn project_to_zero_set_with(field: &GlobalField, x: DVec3, opt: &ProjectOpti
     Projection {
         point: p,
         value: f,
+        gradient: g,
         iterations: opt.max_iterations,
         converged,
-        trusted: field.is_trusted(p),
+        trusted: trusted(p),
     }
 }

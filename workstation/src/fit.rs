@@ -177,8 +177,22 @@ pub struct FitReport {
     /// those that can hold the surface), and the node count of the whole box at that
     /// resolution (what dense meshing would evaluate).
     pub mesh_evaluations: Option<[usize; 2]>,
+    /// Where meshing's time went (processor seconds per phase) and how many Newton
+    /// projections it made.
+    pub mesh_profile: Option<MeshProfile>,
     /// Grid cells along the longest side of the points' box.
     pub resolution: usize,
+}
+
+/// [`sim_core::mesh::MeshStats`]' time and projection counts, for the report.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct MeshProfile {
+    /// Per phase, s.
+    pub timings: sim_core::mesh::MeshTimings,
+    /// Trusted first guesses projected onto the zero set.
+    pub projections: usize,
+    /// Newton steps those took.
+    pub newton_steps: usize,
 }
 
 /// The two-sided error, relative to the reference size (see
@@ -392,7 +406,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
 
     let want_surface = reference.is_some() && args.surface_samples > 0;
     let (mut mesh_triangles, mut mesh_s, mut surface) = (None, None, None);
-    let mut mesh_evaluations = None;
+    let (mut mesh_evaluations, mut mesh_profile) = (None, None);
     if args.mesh.is_some() || want_surface {
         let t2 = Instant::now();
         let (lo, hi) = points.bounds().context("no points")?;
@@ -405,6 +419,11 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         let (mesh, stats) = extract_zero_set_with_stats(&rec.field, box_, padded as usize);
         mesh_s = Some(t2.elapsed().as_secs_f64());
         mesh_evaluations = Some([stats.evaluations, stats.box_nodes]);
+        mesh_profile = Some(MeshProfile {
+            timings: stats.timings,
+            projections: stats.projections,
+            newton_steps: stats.newton_steps,
+        });
         mesh_triangles = Some(mesh.triangles.len());
         if let Some(out) = &args.mesh {
             write_mesh(out, &mesh)?;
@@ -454,6 +473,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         mesh_triangles,
         mesh_s,
         mesh_evaluations,
+        mesh_profile,
         resolution: args.resolution,
     })
 }
@@ -493,6 +513,21 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
         println!(
             "             {sparse} field evaluations ({:.1} % of the box's {dense} nodes)",
             100.0 * sparse as f64 / dense.max(1) as f64
+        );
+    }
+    if let Some(p) = &r.mesh_profile {
+        let t = &p.timings;
+        println!(
+            "             processor s: gather {:.3}, sample {:.3}, cells {:.3}, trust {:.3}, \
+             project {:.3} ({} projections, {:.2} Newton steps each); stitch {:.3} (wall)",
+            t.gather_s,
+            t.sample_s,
+            t.cells_s,
+            t.trust_s,
+            t.project_s,
+            p.projections,
+            p.newton_steps as f64 / p.projections.max(1) as f64,
+            t.stitch_s,
         );
     }
     if let Some(e) = &r.surface {

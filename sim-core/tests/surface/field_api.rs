@@ -202,6 +202,57 @@ fn projection_converges_from_far_and_queries_never_return_nan() {
     assert_bounded(&rec.field, &pts.positions, 1.0, 3.0);
 }
 
+/// The evaluations over a support list gathered for a box (what meshing uses per cell) equal
+/// the field's own, bit for bit, inside the box; a projection that leaves the box switches to
+/// the index and still ends where the plain projection does.
+#[test]
+fn support_list_queries_equal_the_indexed_ones() {
+    use sim_core::field::SupportList;
+    use sim_core::projection::{
+        ProjectOptions, project_to_zero_set_near, project_to_zero_set_with,
+    };
+    let torus = Shape::Torus {
+        major: 1.0,
+        minor: 0.3,
+    };
+    let pts = torus.sample(4000, 9);
+    let rec = fit(&pts, &FitParams::default(), NormalPolicy::Keep);
+    let f = &rec.field;
+    let opts = ProjectOptions::default();
+    let mut list = SupportList::new();
+    let (mut inside, mut outside) = (0, 0);
+    let in_box = |q: DVec3, b: (DVec3, DVec3)| q.cmpge(b.0).all() && q.cmple(b.1).all();
+    for (n, &p) in pts.positions.iter().step_by(40).enumerate() {
+        // A box around a point; starts inside it, and (two in three) off the surface outside it.
+        let h = 0.02 * (1 + n % 3) as f64;
+        let b = (p - DVec3::splat(h), p + DVec3::splat(2.0 * h));
+        f.gather_supports(b.0, b.1, &mut list);
+        let x = p + DVec3::new(0.3, -0.7, 0.5) * h;
+        assert_eq!(f.value_and_gradient_near(x, &list), f.value_and_gradient(x));
+        assert_eq!(f.value_near(x, &list), f.value(x));
+        assert_eq!(f.is_trusted_near(x, &list), f.is_trusted(x));
+        let normal = pts.normals.as_ref().unwrap()[40 * n];
+        for start in [x, p + normal * (0.2 * (n % 3) as f64)] {
+            let near = project_to_zero_set_near(f, start, &opts, &list, b);
+            assert_eq!(
+                near,
+                project_to_zero_set_with(f, start, &opts),
+                "from {start}"
+            );
+            if in_box(start, b) {
+                inside += 1;
+            } else {
+                outside += 1;
+            }
+        }
+    }
+    // Both cases were exercised.
+    assert!(
+        inside > 10 && outside > 10,
+        "{inside} started inside the box, {outside} outside"
+    );
+}
+
 #[test]
 fn construction_is_deterministic() {
     let pts = Shape::Torus {

@@ -306,6 +306,13 @@ fn narrow_band_meshing_and_sampling_equal_the_dense_ones() {
             "{shape}: {stats:?}"
         );
         assert!(sparse.triangles.len() > 1000, "{shape:?}");
+        // Every vertex is a trusted first guess, projected; the profile's phases are filled in.
+        assert_eq!(stats.projections, sparse.vertices.len(), "{shape}");
+        let t = stats.timings;
+        assert!(
+            t.wall_s > 0.0 && t.sample_s > 0.0 && t.project_s > 0.0,
+            "{t:?}"
+        );
         assert!(
             sparse == dense,
             "{shape:?}: narrow band and dense meshes differ"
