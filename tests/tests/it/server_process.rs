@@ -189,12 +189,24 @@ async fn forces_reach_the_device_through_the_safety_stages(transport: &str) {
     assert!(status.success(), "server exit {status}; stderr:\n{stderr}");
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn udp_server_process_serves_forces_safely() {
-    forces_reach_the_device_through_the_safety_stages("udp").await;
+/// The tests' runtime: two workers, as `#[tokio::test(flavor = "multi_thread")]` would make,
+/// built inside a synchronous test so it can hold its slot (a lock) without an await over it.
+fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .expect("tokio runtime")
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn quic_server_process_serves_forces_safely() {
-    forces_reach_the_device_through_the_safety_stages("quic").await;
+#[test]
+fn udp_server_process_serves_forces_safely() {
+    let _slot = e2e_tests::busy_slot();
+    runtime().block_on(forces_reach_the_device_through_the_safety_stages("udp"));
+}
+
+#[test]
+fn quic_server_process_serves_forces_safely() {
+    let _slot = e2e_tests::busy_slot();
+    runtime().block_on(forces_reach_the_device_through_the_safety_stages("quic"));
 }
