@@ -4,18 +4,16 @@
 //! node.
 //!
 //! Two consumers:
-//! - [`crate::mesh`] meshes only the blocks that can hold a *trusted* zero set (within the trust
-//!   radius of some point, [`GlobalField::is_trusted`]), and inside them only the octree boxes
-//!   whose probes allow a sign change ([`sample_block_pruned`]): O(surface area / h²)
-//!   evaluations instead of O(box volume / h³).
+//! - [`crate::mesh`] gathers a block's supports once ([`gather_block`]) for the nodes and
+//!   vertices of the cells its walk along the zero set visits there, and samples every block
+//!   ([`sample_block`]) when meshing densely, the reference.
 //! - [`sample_trusted`] fills a whole grid (the sculpting region) with
 //!   [`GlobalField::trusted_value`]: blocks reached by a support get the blend, the rest the
 //!   nearest point's signed distance, which is exactly what the blend falls back to there.
 //!
 //! Contract: the result equals evaluating every node ([`sample_trusted_dense`], and the dense
 //! mesher) bit for bit: gathered lists keep the index's order, so every blend sums the same
-//! terms in the same order; a test checks both (the octree pruning assumes a slope bound near
-//! the zero set, which that test exercises on smooth, thin, creased and scanned data).
+//! terms in the same order; a test checks both.
 //! Deterministic: blocks are processed in parallel but assembled in key order.
 
 use glam::DVec3;
@@ -143,106 +141,6 @@ pub fn sample_block(
             }
         }
     }
-}
-
-/// The field's values at the nodes of block `b` that can matter for its zero set (x fastest;
-/// NaN where not evaluated), refining by octree: a box of cells is probed at its 27 corner,
-/// edge-midpoint, face-centre and centre nodes and dropped when their signs agree and every
-/// probe is farther from zero than `lipschitz ×` the distance any point of the box can be from
-/// its nearest probe; otherwise it is split in eight, down to boxes of 2³ cells, whose nodes are
-/// all evaluated. Near its zero set the field is close to a signed distance (`‖∇f‖ ≈ 1`), so
-/// with `lipschitz = 2` a dropped box lies a few cells from the surface, and a cell with all
-/// eight corners evaluated is one a sign change could cross. Returns the evaluations made, 0 when
-/// the block was dropped whole. `supports` must hold the block's supports ([`gather_block`]).
-pub fn sample_block_pruned(
-    field: &GlobalField,
-    spec: &GridSpec,
-    b: BlockKey,
-    supports: &SupportList,
-    lipschitz: f64,
-    out: &mut Vec<f64>,
-) -> usize {
-    let (first, count) = block_nodes(spec, b);
-    out.clear();
-    out.resize(count[0] * count[1] * count[2], f64::NAN);
-    let mut evaluations = 0;
-    let mut at = |out: &mut Vec<f64>, list: &SupportList, n: [usize; 3]| -> f64 {
-        let idx = (n[2] * count[1] + n[1]) * count[0] + n[0];
-        if out[idx].is_nan() {
-            let x = spec.node_position(first[0] + n[0], first[1] + n[1], first[2] + n[2]);
-            out[idx] = field.value_near(x, list);
-            evaluations += 1;
-        }
-        out[idx]
-    };
-    // The leaves' nodes are evaluated against the supports reaching the leaf alone (a few
-    // dozen instead of the block's hundreds; same order, same bits).
-    let mut leaf = SupportList::new();
-    let node =
-        |l: [usize; 3]| spec.node_position(first[0] + l[0], first[1] + l[1], first[2] + l[2]);
-    // Boxes of cells: (first node, cells per axis), local to the block.
-    let cells = count.map(|n| n - 1);
-    let mut stack = vec![([0usize; 3], cells)];
-    while let Some((lo, size)) = stack.pop() {
-        if size.iter().all(|&c| c <= 2) {
-            let hi = std::array::from_fn(|a| lo[a] + size[a]);
-            supports.narrow_to(node(lo), node(hi), &mut leaf);
-            for k in 0..=size[2] {
-                for j in 0..=size[1] {
-                    for i in 0..=size[0] {
-                        at(out, &leaf, [lo[0] + i, lo[1] + j, lo[2] + k]);
-                    }
-                }
-            }
-            continue;
-        }
-        let half = size.map(|c| c / 2);
-        let (mut neg, mut pos, mut nearest) = (false, false, f64::INFINITY);
-        for k in [0, half[2], size[2]] {
-            for j in [0, half[1], size[1]] {
-                for i in [0, half[0], size[0]] {
-                    let f = at(out, supports, [lo[0] + i, lo[1] + j, lo[2] + k]);
-                    if f < 0.0 {
-                        neg = true;
-                    } else {
-                        pos = true;
-                    }
-                    nearest = nearest.min(f.abs());
-                }
-            }
-        }
-        // The farthest a point of the box is from a probe: half a sub-box's diagonal.
-        let reach = 0.5
-            * spec.spacing
-            * DVec3::new(
-                half[0].max(size[0] - half[0]) as f64,
-                half[1].max(size[1] - half[1]) as f64,
-                half[2].max(size[2] - half[2]) as f64,
-            )
-            .length();
-        if !(neg && pos) && nearest > lipschitz * reach {
-            continue;
-        }
-        for dk in 0..2 {
-            for dj in 0..2 {
-                for di in 0..2 {
-                    let d = [di, dj, dk];
-                    let child_lo: [usize; 3] = std::array::from_fn(|a| lo[a] + d[a] * half[a]);
-                    let child: [usize; 3] = std::array::from_fn(|a| {
-                        if d[a] == 0 {
-                            half[a]
-                        } else {
-                            size[a] - half[a]
-                        }
-                    });
-                    if child.iter().all(|&c| c > 0) {
-                        stack.push((child_lo, child));
-                    }
-                }
-            }
-        }
-    }
-    evaluations
 }
 
 /// The grid `spec` filled with [`GlobalField::trusted_value`], evaluating the blend only in the

@@ -195,7 +195,7 @@ fn key(c: [i64; 3]) -> u64 {
 
 /// Multiplicative hasher for already well-mixed 64-bit keys.
 #[derive(Debug, Default, Clone, Copy)]
-struct MulHasher(u64);
+pub(crate) struct MulHasher(u64);
 
 impl Hasher for MulHasher {
     fn finish(&self) -> u64 {

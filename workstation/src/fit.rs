@@ -185,10 +185,16 @@ pub struct FitReport {
 }
 
 /// [`sim_core::mesh::MeshStats`]' time and projection counts, for the report.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct MeshProfile {
     /// Per phase, s.
     pub timings: sim_core::mesh::MeshTimings,
+    /// Cells the walk along the zero set visited.
+    pub cells_visited: usize,
+    /// Connected components of the mesh, and the triangles of each (largest first; at most
+    /// 20 listed).
+    pub components: usize,
+    pub component_triangles: Vec<usize>,
     /// Trusted first guesses projected onto the zero set.
     pub projections: usize,
     /// Newton steps those took.
@@ -419,8 +425,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         let (mesh, stats) = extract_zero_set_with_stats(&rec.field, box_, padded as usize);
         mesh_s = Some(t2.elapsed().as_secs_f64());
         mesh_evaluations = Some([stats.evaluations, stats.box_nodes]);
+        let (_, sizes) = mesh.components();
         mesh_profile = Some(MeshProfile {
             timings: stats.timings,
+            cells_visited: stats.cells_visited,
+            components: sizes.len(),
+            component_triangles: sizes.iter().copied().take(20).collect(),
             projections: stats.projections,
             newton_steps: stats.newton_steps,
         });
@@ -518,8 +528,20 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
     if let Some(p) = &r.mesh_profile {
         let t = &p.timings;
         println!(
-            "             processor s: gather {:.3}, sample {:.3}, cells {:.3}, trust {:.3}, \
-             project {:.3} ({} projections, {:.2} Newton steps each); stitch {:.3} (wall)",
+            "             {} connected component(s){}",
+            p.components,
+            if p.components > 1 {
+                format!(", triangles {:?}", p.component_triangles)
+            } else {
+                String::new()
+            }
+        );
+        println!(
+            "             walk {:.3} s wall over {} cells; processor s: gather {:.3}, sample \
+             {:.3}, cells {:.3}, trust {:.3}, project {:.3} ({} projections, {:.2} Newton steps \
+             each); stitch {:.3} (wall)",
+            t.follow_s,
+            p.cells_visited,
             t.gather_s,
             t.sample_s,
             t.cells_s,

@@ -5,11 +5,15 @@
 //! Only the trusted zero set is meshed ([`GlobalField::is_trusted`]): a cell emits a vertex when
 //! its first guess lies within the trust radius of a point, so sheets and blobs where local fits
 //! extrapolate, and sign changes of the nearest-point fallback far from the surface, leave no
-//! geometry. Since such a cell touches a point's trust ball, [`extract_zero_set`] evaluates the
-//! field only in the [`crate::sparse`] blocks those balls reach (cost ∝ surface, not box);
-//! [`extract_zero_set_dense`] evaluates every node and gives the same mesh.
+//! geometry. [`extract_zero_set`] finds the cells by walking the trusted zero set from the
+//! points' cells (`follow.rs`): it evaluates about the corners of the crossed cells (cost ∝
+//! surface, not box) and meshes no piece that no point leads to.
+//! [`extract_zero_set_dense`] evaluates every node and scans every cell: on a surface the points
+//! support everywhere it gives the same mesh, bit for bit.
 //!
 //! Contract: vertices are finite; deterministic for a field and grid.
+
+mod follow;
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -21,8 +25,7 @@ use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
 use crate::projection::{ProjectOptions, project_to_zero_set_near};
 use crate::sparse::{
-    BLOCK, BlockKey, all_blocks, block_dims, block_nodes, blocks_near, gather_block, sample_block,
-    sample_block_pruned,
+    BLOCK, BlockKey, all_blocks, block_dims, block_nodes, gather_block, sample_block,
 };
 
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside.
@@ -55,6 +58,51 @@ impl TriMesh {
             .collect()
     }
 
+    /// Connected components (triangles sharing a vertex are connected): each vertex's
+    /// component label (`u32::MAX` for a vertex no triangle uses) and the number of triangles
+    /// in each component, largest first in label order.
+    pub fn components(&self) -> (Vec<u32>, Vec<usize>) {
+        let n = self.vertices.len();
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        fn root(parent: &mut [u32], mut v: u32) -> u32 {
+            while parent[v as usize] != v {
+                let up = parent[parent[v as usize] as usize];
+                parent[v as usize] = up;
+                v = up;
+            }
+            v
+        }
+        for t in &self.triangles {
+            for &o in &t[1..] {
+                let (a, b) = (root(&mut parent, t[0]), root(&mut parent, o));
+                if a != b {
+                    parent[a.max(b) as usize] = a.min(b);
+                }
+            }
+        }
+        let mut triangles_of_root: HashMap<u32, usize> = HashMap::new();
+        for t in &self.triangles {
+            *triangles_of_root
+                .entry(root(&mut parent, t[0]))
+                .or_default() += 1;
+        }
+        let mut roots: Vec<(usize, u32)> =
+            triangles_of_root.iter().map(|(&r, &c)| (c, r)).collect();
+        roots.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        let label: HashMap<u32, u32> = roots
+            .iter()
+            .enumerate()
+            .map(|(i, &(_, r))| (r, i as u32))
+            .collect();
+        let labels = (0..n as u32)
+            .map(|v| {
+                let r = root(&mut parent, v);
+                label.get(&r).copied().unwrap_or(u32::MAX)
+            })
+            .collect();
+        (labels, roots.iter().map(|&(c, _)| c).collect())
+    }
+
     /// Total triangle area.
     pub fn area(&self) -> f64 {
         self.triangles
@@ -82,16 +130,10 @@ pub fn mesh_grid(bounds: (DVec3, DVec3), resolution: usize) -> GridSpec {
 }
 
 /// Extract the trusted zero set of `field` inside `bounds` on a grid whose longest side has
-/// `resolution` cells (clamped to 8..=2048), evaluating only the blocks near the points. Runs
-/// on all cores.
+/// `resolution` cells (clamped to 8..=2048), following it from the points. Runs on all cores.
 pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution: usize) -> TriMesh {
-    let spec = mesh_grid(bounds, resolution);
-    let blocks = blocks_near(&spec, field.trusted_balls(), true);
-    extract_blocks(field, &spec, &blocks, Some(PRUNE_LIPSCHITZ)).0
+    extract_zero_set_with_stats(field, bounds, resolution).0
 }
-
-/// The slope bound [`extract_zero_set`] prunes with ([`crate::sparse::sample_block_pruned`]).
-pub const PRUNE_LIPSCHITZ: f64 = 2.0;
 
 /// [`extract_zero_set`] evaluating the field at every node of the box (the reference the
 /// narrow-band path is tested against; O(resolution³)).
@@ -104,15 +146,25 @@ pub fn extract_zero_set_dense(
     extract_blocks(field, &spec, &all_blocks(&spec), None).0
 }
 
+/// Block keys in [`all_blocks`]' order (z slowest), so a followed mesh numbers its vertices as
+/// the dense one does.
+fn in_grid_order(mut keys: Vec<BlockKey>) -> Vec<BlockKey> {
+    keys.sort_unstable_by_key(|b| [b[2], b[1], b[0]]);
+    keys
+}
+
 /// Where a meshing run's time went, s. The parallel phases are summed over the worker
 /// threads (processor time), so they add up to about `threads × wall` of their part.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct MeshTimings {
     /// Whole run, wall clock.
     pub wall_s: f64,
+    /// Walking the zero set from the points' cells, wall clock (its evaluations are
+    /// `sample_s`; 0 for dense meshing).
+    pub follow_s: f64,
     /// Gathering each block's supporting points (parallel).
     pub gather_s: f64,
-    /// Evaluating the field at the block's nodes, with octree pruning (parallel).
+    /// Evaluating the field at grid nodes (parallel).
     pub sample_s: f64,
     /// Scanning cells for sign changes and placing first guesses (parallel).
     pub cells_s: f64,
@@ -133,10 +185,12 @@ pub struct MeshStats {
     pub evaluations: usize,
     /// Nodes of the whole grid: what dense meshing evaluates.
     pub box_nodes: usize,
-    /// Blocks near the points.
+    /// Blocks meshed: those the walk reached (every block for dense meshing).
     pub blocks_near: usize,
     /// Of those, blocks that hold part of the mesh.
     pub blocks_meshed: usize,
+    /// Cells the walk along the zero set visited (0 for dense meshing).
+    pub cells_visited: usize,
     /// Cells with a sign change whose first guess was trusted and projected.
     pub projections: usize,
     /// Newton steps those projections took in all.
@@ -151,9 +205,18 @@ pub fn extract_zero_set_with_stats(
     bounds: (DVec3, DVec3),
     resolution: usize,
 ) -> (TriMesh, MeshStats) {
+    let started = Instant::now();
     let spec = mesh_grid(bounds, resolution);
-    let blocks = blocks_near(&spec, field.trusted_balls(), true);
-    extract_blocks(field, &spec, &blocks, Some(PRUNE_LIPSCHITZ))
+    let followed = follow::follow(field, &spec);
+    let follow_s = started.elapsed().as_secs_f64();
+    let blocks = in_grid_order(followed.values.keys().copied().collect());
+    let (mesh, mut stats) = extract_blocks(field, &spec, &blocks, Some(&followed.values));
+    stats.evaluations = followed.evaluations;
+    stats.cells_visited = followed.cells;
+    stats.timings.sample_s = followed.eval_ns as f64 * 1e-9;
+    stats.timings.follow_s = follow_s;
+    stats.timings.wall_s = started.elapsed().as_secs_f64();
+    (mesh, stats)
 }
 
 /// One evaluated block: node values and the vertex (if any) of each of its cells.
@@ -171,12 +234,13 @@ struct MeshBlock {
     ns: [u64; 5],
 }
 
-/// Mesh `blocks`; with `prune`, evaluate only the octree boxes that can hold a sign change.
+/// Mesh `blocks`, with their node values `given` (NaN where not evaluated; from the walk) or
+/// else evaluated at every node.
 fn extract_blocks(
     field: &GlobalField,
     spec: &GridSpec,
     blocks: &[BlockKey],
-    prune: Option<f64>,
+    given: Option<&HashMap<BlockKey, Vec<f64>>>,
 ) -> (TriMesh, MeshStats) {
     let started = Instant::now();
     let h = spec.spacing;
@@ -189,14 +253,13 @@ fn extract_blocks(
                 let t0 = Instant::now();
                 gather_block(field, spec, key, supports);
                 let t1 = Instant::now();
-                let mut values = Vec::new();
-                let evaluations = match prune {
-                    Some(lipschitz) => {
-                        sample_block_pruned(field, spec, key, supports, lipschitz, &mut values)
-                    }
+                let (values, evaluations) = match given {
+                    Some(given) => (given[&key].clone(), 0),
                     None => {
+                        let mut values = Vec::new();
                         sample_block(field, spec, key, supports, |_, f| f, &mut values);
-                        values.len()
+                        let n = values.len();
+                        (values, n)
                     }
                 };
                 let t2 = Instant::now();
@@ -223,22 +286,12 @@ fn extract_blocks(
                             if corner.iter().any(|f| f.is_nan()) {
                                 continue; // pruned: no sign change here
                             }
-                            let (mut sum, mut n) = (DVec3::ZERO, 0.0);
-                            for (a, b) in CUBE_EDGES {
-                                let (fa, fb) = (corner[a], corner[b]);
-                                if (fa < 0.0) != (fb < 0.0) {
-                                    let t = fa / (fa - fb);
-                                    let pa = corner_offset(a);
-                                    sum += pa + (corner_offset(b) - pa) * t;
-                                    n += 1.0;
-                                }
-                            }
-                            if n == 0.0 {
+                            let Some(offset) = follow::first_guess(&corner) else {
                                 continue;
-                            }
+                            };
                             let guess =
                                 spec.node_position(first[0] + i, first[1] + j, first[2] + k)
-                                    + sum / n * h;
+                                    + offset * h;
                             let ta = Instant::now();
                             // The cell and a cell around it: where the guess and, nearly always,
                             // the projection's iterates lie (outside it they use the index).
@@ -302,6 +355,7 @@ fn extract_blocks(
         box_nodes: spec.node_count(),
         blocks_near: blocks.len(),
         blocks_meshed: evaluated.iter().filter(|b| !b.vertices.is_empty()).count(),
+        cells_visited: 0,
         projections: evaluated.iter().map(|b| b.projections).sum(),
         newton_steps: evaluated.iter().map(|b| b.newton_steps).sum(),
         timings: MeshTimings::default(),
@@ -475,4 +529,23 @@ fn closest_on_proper_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     }
     let (v, w) = (vb / denom, vc / denom);
     a + ab * v + ac * w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn components_count_pieces_largest_first_and_skip_unused_vertices() {
+        let v = |x: f64| DVec3::new(x, 0.0, 0.0);
+        let mesh = TriMesh {
+            // Two triangles sharing vertex 1, a lone triangle, and an unused vertex 7.
+            vertices: (0..8).map(|i| v(i as f64)).collect(),
+            normals: Vec::new(),
+            triangles: vec![[4, 5, 6], [0, 1, 2], [1, 3, 2]],
+        };
+        let (labels, sizes) = mesh.components();
+        assert_eq!(sizes, vec![2, 1]);
+        assert_eq!(labels, vec![0, 0, 0, 0, 1, 1, 1, u32::MAX]);
+    }
 }

@@ -1,0 +1,252 @@
+//! Following the trusted zero set from the points (continuation, as in Bloomenthal's implicit
+//! surface polygonizer): instead of evaluating every grid node that might be near the surface,
+//! start at the cells holding the points and walk from cell to cell across faces the surface
+//! crosses, evaluating only the corners of the cells visited. Nodes evaluated are about those of
+//! the crossed cells (2–3 per vertex on a smooth surface), where pruning a narrow band by a
+//! slope bound evaluated 10–15 per vertex.
+//!
+//! The walk stops at cells whose first vertex guess is not trusted
+//! ([`GlobalField::is_trusted`]), so it meshes the trusted zero set connected to the points:
+//! a piece of zero set that no point's cell leads to (a fragment the points do not support) is
+//! never visited. A point whose cell the surface does not cross is projected onto the zero set
+//! once and the projection's cell tried instead.
+//!
+//! Contract: the visited set, and so the node values, depend only on the field and the grid
+//! (each round's frontier is processed as a set; values are evaluated in parallel with the
+//! blend's own bits, [`GlobalField::value_near`]).
+
+use std::collections::{HashMap, HashSet};
+use std::hash::BuildHasherDefault;
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::field::{GlobalField, SupportList};
+use crate::grid::GridSpec;
+use crate::sparse::{BLOCK, BlockKey, block_dims, block_nodes, gather_block};
+use crate::spatial::MulHasher;
+
+/// What [`follow`] found.
+pub(super) struct Followed {
+    /// Node values of every block a visited cell's corner lies in (x fastest; NaN where not
+    /// evaluated), ready for the per-block cell scan.
+    pub values: HashMap<BlockKey, Vec<f64>>,
+    /// Field evaluations made (one per node).
+    pub evaluations: usize,
+    /// Processor time of those evaluations and of the trust tests, ns.
+    pub eval_ns: u64,
+    /// Cells visited.
+    pub cells: usize,
+}
+
+type Node = [usize; 3];
+
+/// Hash maps keyed by grid coordinates packed into one integer (a multiplicative hash).
+type Fast = BuildHasherDefault<MulHasher>;
+
+/// Walk the trusted zero set of `field` on `spec` from the points' cells.
+pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
+    let dims = spec.dims;
+    let bdims = block_dims(spec);
+    let h = spec.spacing;
+    let cell_of = |p: DVec3| -> Option<Node> {
+        let g = (p - spec.origin) / h;
+        let c = [g.x, g.y, g.z].map(|v| v.floor());
+        (0..3)
+            .all(|a| c[a] >= 0.0 && (c[a] as usize) + 1 < dims[a])
+            .then(|| c.map(|v| v as usize))
+    };
+    let home = |n: Node| -> BlockKey { std::array::from_fn(|a| (n[a] / BLOCK).min(bdims[a] - 1)) };
+    let block_box = |b: BlockKey| {
+        let (first, count) = block_nodes(spec, b);
+        let last: [usize; 3] = std::array::from_fn(|a| first[a] + count[a] - 1);
+        (
+            spec.node_position(first[0], first[1], first[2]),
+            spec.node_position(last[0], last[1], last[2]),
+        )
+    };
+    let corners = |c: Node| -> [Node; 8] {
+        std::array::from_fn(|k| [c[0] + (k & 1), c[1] + ((k >> 1) & 1), c[2] + (k >> 2)])
+    };
+
+    let key = |n: Node| ((n[2] * dims[1] + n[1]) * dims[0] + n[0]) as u64;
+    let mut values: HashMap<u64, f64, Fast> = HashMap::default();
+    let mut lists: HashMap<BlockKey, SupportList> = HashMap::new();
+    let mut visited: HashSet<u64, Fast> = HashSet::default();
+    let mut eval_ns = 0u64;
+
+    // Round 0: the cells holding the points, each with the points in it (for the retry).
+    let mut seeds: HashMap<Node, DVec3> = HashMap::new();
+    for (p, _) in field.trusted_balls() {
+        if let Some(c) = cell_of(p) {
+            seeds.entry(c).or_insert(p);
+        }
+    }
+    let mut frontier: Vec<Node> = seeds.keys().copied().collect();
+    frontier.sort_unstable();
+    visited.extend(frontier.iter().map(|&c| key(c)));
+    let mut retry_seeds = true;
+
+    while !frontier.is_empty() {
+        // 1. Evaluate the corners not yet known, in parallel, each with its home block's
+        //    supports (gathered once per block).
+        let mut need: Vec<Node> = frontier
+            .iter()
+            .flat_map(|&c| corners(c))
+            .filter(|&n| !values.contains_key(&key(n)))
+            .collect();
+        need.sort_unstable();
+        need.dedup();
+        let mut new_blocks: Vec<BlockKey> = need
+            .iter()
+            .map(|&n| home(n))
+            .filter(|b| !lists.contains_key(b))
+            .collect();
+        new_blocks.sort_unstable();
+        new_blocks.dedup();
+        let gathered: Vec<(BlockKey, SupportList)> = new_blocks
+            .par_iter()
+            .map(|&b| {
+                let mut l = SupportList::new();
+                gather_block(field, spec, b, &mut l);
+                (b, l)
+            })
+            .collect();
+        lists.extend(gathered);
+        let evaluated: Vec<(f64, u64)> = need
+            .par_iter()
+            .map(|&n| {
+                let t = Instant::now();
+                let x = spec.node_position(n[0], n[1], n[2]);
+                let f = field.value_near(x, &lists[&home(n)]);
+                (f, t.elapsed().as_nanos() as u64)
+            })
+            .collect();
+        for (&n, &(f, ns)) in need.iter().zip(&evaluated) {
+            values.insert(key(n), f);
+            eval_ns += ns;
+        }
+
+        // 2. Which frontier cells the surface crosses where it is trusted (in parallel: the
+        //    trust test is the costly part).
+        let crossed: Vec<Option<[f64; 8]>> = frontier
+            .par_iter()
+            .map(|&c| {
+                let f = corners(c).map(|n| values[&key(n)]);
+                let guess = first_guess(&f)?;
+                let p = spec.node_position(c[0], c[1], c[2]) + guess * h;
+                // The guess lies in the cell, inside the box its first corner's block list
+                // was gathered for (the index answers if rounding put it a hair outside).
+                let b = home(c);
+                let (lo, hi) = block_box(b);
+                let trusted = if p.cmpge(lo).all() && p.cmple(hi).all() {
+                    field.is_trusted_near(p, &lists[&b])
+                } else {
+                    field.is_trusted(p)
+                };
+                trusted.then_some(f)
+            })
+            .collect();
+
+        // 3. Step across every face with a sign change among its corners.
+        let mut next = Vec::new();
+        for (&c, f) in frontier.iter().zip(&crossed) {
+            let Some(f) = f else {
+                if retry_seeds && let Some(&p) = seeds.get(&c) {
+                    // A point whose cell the surface misses: try where it projects.
+                    let pr = field.project_to_zero_set(p);
+                    if pr.converged
+                        && let Some(c2) = cell_of(pr.point)
+                        && visited.insert(key(c2))
+                    {
+                        next.push(c2);
+                    }
+                }
+                continue;
+            };
+            for axis in 0..3 {
+                for side in 0..2 {
+                    let face = (0..8).filter(|k| (k >> axis) & 1 == side);
+                    let (mut neg, mut pos) = (false, false);
+                    for k in face {
+                        (neg, pos) = (neg || f[k] < 0.0, pos || f[k] >= 0.0);
+                    }
+                    if !(neg && pos) {
+                        continue;
+                    }
+                    let mut n = c;
+                    if side == 0 {
+                        let Some(v) = n[axis].checked_sub(1) else {
+                            continue;
+                        };
+                        n[axis] = v;
+                    } else {
+                        n[axis] += 1;
+                        if n[axis] + 1 >= dims[axis] {
+                            continue;
+                        }
+                    }
+                    if visited.insert(key(n)) {
+                        next.push(n);
+                    }
+                }
+            }
+        }
+        retry_seeds = false;
+        next.sort_unstable();
+        frontier = next;
+    }
+
+    // Hand every value to each block whose nodes include it (face nodes are shared).
+    let evaluations = values.len();
+    let mut blocks: HashMap<BlockKey, Vec<f64>> = HashMap::new();
+    for (&k, &f) in &values {
+        let k = k as usize;
+        let n: Node = [
+            k % dims[0],
+            (k / dims[0]) % dims[1],
+            k / (dims[0] * dims[1]),
+        ];
+        let lo: [usize; 3] = std::array::from_fn(|a| n[a].saturating_sub(1) / BLOCK);
+        let hi: [usize; 3] = std::array::from_fn(|a| (n[a] / BLOCK).min(bdims[a] - 1));
+        for bk in lo[2]..=hi[2] {
+            for bj in lo[1]..=hi[1] {
+                for bi in lo[0]..=hi[0] {
+                    let b = [bi, bj, bk];
+                    let (first, count) = block_nodes(spec, b);
+                    let l: [usize; 3] = std::array::from_fn(|a| n[a].wrapping_sub(first[a]));
+                    if (0..3).any(|a| l[a] >= count[a]) {
+                        continue;
+                    }
+                    let v = blocks
+                        .entry(b)
+                        .or_insert_with(|| vec![f64::NAN; count[0] * count[1] * count[2]]);
+                    v[(l[2] * count[1] + l[1]) * count[0] + l[0]] = f;
+                }
+            }
+        }
+    }
+    Followed {
+        values: blocks,
+        evaluations,
+        eval_ns,
+        cells: visited.len(),
+    }
+}
+
+/// The surface-nets first guess in a cell from its corner values (cell units, relative to
+/// its first corner), or `None` without a sign change.
+pub(super) fn first_guess(corner: &[f64; 8]) -> Option<DVec3> {
+    let (mut sum, mut n) = (DVec3::ZERO, 0.0);
+    for (a, b) in super::CUBE_EDGES {
+        let (fa, fb) = (corner[a], corner[b]);
+        if (fa < 0.0) != (fb < 0.0) {
+            let t = fa / (fa - fb);
+            let pa = super::corner_offset(a);
+            sum += pa + (super::corner_offset(b) - pa) * t;
+            n += 1.0;
+        }
+    }
+    (n > 0.0).then(|| sum / n)
+}
