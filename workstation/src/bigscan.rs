@@ -34,8 +34,9 @@ impl Rng {
 
 /// `n` points on `mesh`, uniform by area, seeded; each normal interpolates the mesh's vertex
 /// normals (from its faces when it has none) across its triangle, so the sampled surface has
-/// smooth normals like a scan's. Positions are scaled about the mesh's bounding-box centre so
-/// the box's longest side is `size` m (none: kept), and the result is in spatial order.
+/// smooth normals like a scan's. With `size`, positions are centred on the mesh's bounding-box
+/// centre and scaled so the box's longest side is `size` m; without, they stay where the mesh
+/// is (so the mesh is their ground truth). The result is in spatial order.
 pub fn sample_mesh(mesh: &TriMesh, n: usize, seed: u64, size: Option<f64>) -> PointSet {
     let normals = if mesh.normals.len() == mesh.vertices.len() {
         mesh.normals.clone()
@@ -43,8 +44,13 @@ pub fn sample_mesh(mesh: &TriMesh, n: usize, seed: u64, size: Option<f64>) -> Po
         mesh.vertex_normals()
     };
     let (lo, hi) = sim_core::pointset::bounds(&mesh.vertices).unwrap_or((DVec3::ZERO, DVec3::ONE));
-    let centre = 0.5 * (lo + hi);
-    let scale = size.map_or(1.0, |s| s / (hi - lo).max_element().max(f64::MIN_POSITIVE));
+    let (centre, scale) = match size {
+        Some(s) => (
+            0.5 * (lo + hi),
+            s / (hi - lo).max_element().max(f64::MIN_POSITIVE),
+        ),
+        None => (DVec3::ZERO, 1.0),
+    };
     let mut cumulative = Vec::with_capacity(mesh.triangles.len());
     let mut total = 0.0;
     for t in &mesh.triangles {
@@ -175,5 +181,14 @@ mod tests {
         assert!(step < 0.01, "mean step {step}");
         assert_eq!(sample_mesh(&mesh, 5000, 3, Some(0.1)), p, "seeded");
         assert!(peak_rss_kib() > 0);
+        // Without a size the points stay on the mesh where it is (the square spans 0..1, its
+        // centre is not the origin): `fit sample:MESH:N` measures against the mesh itself.
+        let kept = sample_mesh(&mesh, 1000, 4, None);
+        assert!(
+            kept.positions
+                .iter()
+                .all(|x| x.z == 0.0 && (0.0..=1.0).contains(&x.x) && (0.0..=1.0).contains(&x.y))
+        );
+        assert!(kept.positions.iter().any(|x| x.x > 0.75));
     }
 }
