@@ -607,6 +607,10 @@ pub struct MeshErrorReport {
     pub samples: usize,
     /// Triangles in the mesh.
     pub triangles: usize,
+    /// Connected pieces of the mesh (vertices at the same position merged).
+    pub pieces: usize,
+    /// Connected pieces of the reference, when it is a mesh.
+    pub reference_pieces: Option<usize>,
     /// Mesh → reference, relative.
     pub to_reference: Distances,
     /// Reference → mesh (coverage), relative.
@@ -627,10 +631,17 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
     let mesh = read_file(&args.mesh)?
         .mesh
         .with_context(|| format!("{} has no faces", args.mesh.display()))?;
+    let mut reference_pieces = None;
     let reference: Box<dyn Reference> = match parse_reference(&args.reference)? {
         ReferenceSpec::None => bail!("--reference none: mesh-error needs a reference"),
         ReferenceSpec::Shape(shape) => Box::new(shape),
-        ReferenceSpec::Mesh(path) => Box::new(read_mesh_reference(&path)?),
+        ReferenceSpec::Mesh(path) => {
+            let truth = read_file(&path)?
+                .mesh
+                .with_context(|| format!("{} has no faces", path.display()))?;
+            reference_pieces = Some(truth.pieces());
+            Box::new(MeshReference::new(truth).context("reference mesh has no triangles")?)
+        }
     };
     let seed = args.seed ^ ERROR_SEED_SALT; // as `fit` salts its own: same seed, same samples
     let e = mesh_error(&mesh, reference.as_ref(), args.samples, seed).with_context(|| {
@@ -646,6 +657,8 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
         reference_size: e.reference_size,
         samples: e.samples,
         triangles: mesh.triangles.len(),
+        pieces: mesh.pieces(),
+        reference_pieces,
         to_reference,
         coverage,
     })
@@ -658,10 +671,16 @@ pub fn print_mesh_error(r: &MeshErrorReport, json: bool) -> anyhow::Result<()> {
         return Ok(());
     }
     let d = distances_text;
-    println!("mesh         {} ({} triangles)", r.mesh, r.triangles);
     println!(
-        "reference    {} (size {:.6e} m)",
-        r.reference, r.reference_size
+        "mesh         {} ({} triangles, {} connected piece(s))",
+        r.mesh, r.triangles, r.pieces
+    );
+    println!(
+        "reference    {} (size {:.6e} m{})",
+        r.reference,
+        r.reference_size,
+        r.reference_pieces
+            .map_or(String::new(), |n| format!(", {n} connected piece(s)"))
     );
     println!(
         "mesh → ref   {} ({} samples each way, relative to the size)",

@@ -103,6 +103,33 @@ impl TriMesh {
         (labels, roots.iter().map(|&(c, _)| c).collect())
     }
 
+    /// Connected pieces as a person sees them: [`TriMesh::components`] after merging vertices
+    /// at exactly the same position (files that split vertices by normal or texture
+    /// coordinate, as OBJ exporters do, would otherwise count every face apart).
+    pub fn pieces(&self) -> usize {
+        let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(self.vertices.len());
+        let remap: Vec<u32> = self
+            .vertices
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                *first
+                    .entry(p.to_array().map(f64::to_bits))
+                    .or_insert(i as u32)
+            })
+            .collect();
+        let welded = TriMesh {
+            vertices: self.vertices.clone(),
+            normals: Vec::new(),
+            triangles: self
+                .triangles
+                .iter()
+                .map(|t| t.map(|v| remap[v as usize]))
+                .collect(),
+        };
+        welded.components().1.len()
+    }
+
     /// Total triangle area.
     pub fn area(&self) -> f64 {
         self.triangles
@@ -547,5 +574,11 @@ mod tests {
         let (labels, sizes) = mesh.components();
         assert_eq!(sizes, vec![2, 1]);
         assert_eq!(labels, vec![0, 0, 0, 0, 1, 1, 1, u32::MAX]);
+        assert_eq!(mesh.pieces(), 2);
+        // The lone triangle's corner 4 duplicated at vertex 0's position: one piece.
+        let mut split = mesh.clone();
+        split.vertices[4] = split.vertices[0];
+        assert_eq!(split.components().1.len(), 2);
+        assert_eq!(split.pieces(), 1);
     }
 }
