@@ -162,8 +162,8 @@ pub fn extract_zero_set(field: &GlobalField, bounds: (DVec3, DVec3), resolution:
     extract_zero_set_with_stats(field, bounds, resolution).0
 }
 
-/// [`extract_zero_set`] evaluating the field at every node of the box (the reference the
-/// narrow-band path is tested against; O(resolution³)).
+/// [`extract_zero_set`] evaluating the field at every node of the box and scanning every cell
+/// (the reference the walk is tested against; O(resolution³)).
 pub fn extract_zero_set_dense(
     field: &GlobalField,
     bounds: (DVec3, DVec3),
@@ -207,8 +207,8 @@ pub struct MeshTimings {
 /// What a meshing run evaluated.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct MeshStats {
-    /// Grid-node field evaluations (octree probes and the nodes of the cells near the zero set;
-    /// a node on a shared block face counts once per block).
+    /// Grid-node field evaluations: the corners of the cells the walk visited, each once (dense
+    /// meshing: every node of every block, a node on a shared block face once per block).
     pub evaluations: usize,
     /// Nodes of the whole grid: what dense meshing evaluates.
     pub box_nodes: usize,

@@ -1,8 +1,10 @@
 //! The trusted zero set and the two-sided metric that sees what the projected one cannot:
 //! - the metric against meshes with known offsets, sheets and holes on a sphere, torus and box;
 //! - spurious-sheet regressions (the bunny's ear sheet, debris on a CSG crease, a sharp box),
-//!   each shown to exist with trust switched off, so the bounds are not vacuous;
-//! - narrow-band meshing and region sampling equal to evaluating every node.
+//!   each shown to exist with trust switched off (meshed densely), so the bounds are not
+//!   vacuous;
+//! - meshing that follows the zero set, and block-sparse region sampling, against evaluating
+//!   every node.
 
 use glam::DVec3;
 use sim_core::FitParams;
