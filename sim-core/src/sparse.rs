@@ -109,8 +109,9 @@ pub fn block_nodes(spec: &GridSpec, b: BlockKey) -> ([usize; 3], [usize; 3]) {
     (first, count)
 }
 
-/// Gather into `supports` every support reaching block `b`'s nodes.
-pub fn gather_block(field: &GlobalField, spec: &GridSpec, b: BlockKey, supports: &mut SupportList) {
+/// The box block `b`'s nodes span: what [`gather_block`] gathers for, so a list it filled
+/// answers for every point inside.
+pub fn block_box(spec: &GridSpec, b: BlockKey) -> (DVec3, DVec3) {
     let (first, count) = block_nodes(spec, b);
     let lo = spec.node_position(first[0], first[1], first[2]);
     let hi = spec.node_position(
@@ -118,6 +119,12 @@ pub fn gather_block(field: &GlobalField, spec: &GridSpec, b: BlockKey, supports:
         first[1] + count[1] - 1,
         first[2] + count[2] - 1,
     );
+    (lo, hi)
+}
+
+/// Gather into `supports` every support reaching block `b`'s nodes.
+pub fn gather_block(field: &GlobalField, spec: &GridSpec, b: BlockKey, supports: &mut SupportList) {
+    let (lo, hi) = block_box(spec, b);
     field.gather_supports(lo, hi, supports);
 }
 

@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
-use crate::sparse::{BLOCK, BlockKey, block_dims, block_nodes, gather_block};
+use crate::sparse::{BLOCK, BlockKey, block_box, block_dims, block_nodes, gather_block};
 use crate::spatial::MulHasher;
 
 /// What [`follow`] found.
@@ -34,7 +34,7 @@ pub(super) struct Followed {
     pub values: HashMap<BlockKey, Vec<f64>>,
     /// Field evaluations made (one per node).
     pub evaluations: usize,
-    /// Processor time of those evaluations and of the trust tests, ns.
+    /// Processor time of those evaluations, ns.
     pub eval_ns: u64,
     /// Cells visited.
     pub cells: usize,
@@ -58,14 +58,6 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
             .then(|| c.map(|v| v as usize))
     };
     let home = |n: Node| -> BlockKey { std::array::from_fn(|a| (n[a] / BLOCK).min(bdims[a] - 1)) };
-    let block_box = |b: BlockKey| {
-        let (first, count) = block_nodes(spec, b);
-        let last: [usize; 3] = std::array::from_fn(|a| first[a] + count[a] - 1);
-        (
-            spec.node_position(first[0], first[1], first[2]),
-            spec.node_position(last[0], last[1], last[2]),
-        )
-    };
     let corners = |c: Node| -> [Node; 8] {
         std::array::from_fn(|k| [c[0] + (k & 1), c[1] + ((k >> 1) & 1), c[2] + (k >> 2)])
     };
@@ -139,7 +131,7 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
                 // The guess lies in the cell, inside the box its first corner's block list
                 // was gathered for (the index answers if rounding put it a hair outside).
                 let b = home(c);
-                let (lo, hi) = block_box(b);
+                let (lo, hi) = block_box(spec, b);
                 let trusted = if p.cmpge(lo).all() && p.cmple(hi).all() {
                     field.is_trusted_near(p, &lists[&b])
                 } else {

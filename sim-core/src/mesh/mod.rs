@@ -25,7 +25,7 @@ use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
 use crate::projection::{ProjectOptions, project_to_zero_set_near};
 use crate::sparse::{
-    BLOCK, BlockKey, all_blocks, block_dims, block_nodes, gather_block, sample_block,
+    BLOCK, BlockKey, all_blocks, block_box, block_dims, block_nodes, gather_block, sample_block,
 };
 
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside.
@@ -291,14 +291,7 @@ fn extract_blocks(
                 };
                 let t2 = Instant::now();
                 let (first, count) = block_nodes(spec, key);
-                let block_box = (
-                    spec.node_position(first[0], first[1], first[2]),
-                    spec.node_position(
-                        first[0] + count[0] - 1,
-                        first[1] + count[1] - 1,
-                        first[2] + count[2] - 1,
-                    ),
-                );
+                let block_box = block_box(spec, key);
                 let at = |i: usize, j: usize, k: usize| values[(k * count[1] + j) * count[0] + i];
                 let mut vertices = Vec::new();
                 let (mut trust_ns, mut project_ns, mut projections, mut newton_steps) =
