@@ -39,11 +39,18 @@ impl ClockSample {
         ((a + b) / 2).clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64
     }
 
-    /// Round trip minus the server's hold time, ns; `None` if the timestamps are inconsistent.
+    /// Round trip minus the server's hold time, ns; `None` if the timestamps are inconsistent
+    /// (the client received before it sent, or the hold exceeds the whole round trip).
+    ///
+    /// The hold `t2 − t1` may be negative, and then adds to the round trip: the haptics
+    /// server stamps a command's arrival `t1` when its receiver hands it to the servo, and
+    /// the acknowledging cursor with `t2` = the start of the tick that applied it, so a
+    /// command handed over between a tick's stamp and its drain of the ring is acknowledged
+    /// by that tick with `t2 < t1`. The formula is exact either way.
     pub fn rtt_ns(&self) -> Option<u64> {
         let total = self.t3_ns.checked_sub(self.t0_ns)?;
-        let hold = self.t2_ns.checked_sub(self.t1_ns)?;
-        total.checked_sub(hold)
+        let hold = i128::from(self.t2_ns) - i128::from(self.t1_ns);
+        u64::try_from(i128::from(total) - hold).ok()
     }
 }
 
@@ -238,5 +245,24 @@ mod tests {
         assert_eq!(e.add(bad), Err(ClockError::Inconsistent));
         assert_eq!(e.refused(), 1);
         assert!(e.estimate().is_none());
+    }
+
+    #[test]
+    fn a_negative_hold_adds_to_the_round_trip() {
+        // Acknowledged by a tick stamped 10 ns before the command's arrival was stamped.
+        let s = ClockSample {
+            t0_ns: 0,
+            t1_ns: 50,
+            t2_ns: 40,
+            t3_ns: 100,
+        };
+        assert_eq!(s.rtt_ns(), Some(110));
+        // The one-way delays from any offset add up to it, as for a positive hold.
+        let offset = 7;
+        let down = s.t3_ns as i64 - s.t2_ns as i64 + offset;
+        let up = s.t1_ns as i64 - offset - s.t0_ns as i64;
+        assert_eq!(down + up, 110);
+        let mut e = ClockEstimator::new(0.0);
+        assert!(e.add(s).is_ok());
     }
 }
