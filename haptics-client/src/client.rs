@@ -233,42 +233,12 @@ impl HotPath {
         &mut self,
         timeout: Duration,
     ) -> Result<Option<(Packet, CursorSample)>, ClientError> {
-        use std::os::fd::AsRawFd as _;
         let SenderSocket::Udp(socket) = &self.tx.socket else {
             return Err(ClientError::Protocol(
                 "blocking receive is for the UDP transport".into(),
             ));
         };
-        let deadline = std::time::Instant::now() + timeout;
-        let mut buf = [0u8; MAX_PACKET_BYTES + 1];
-        loop {
-            match socket.recv(&mut buf) {
-                Ok(n) => {
-                    if let Ok(p) = self.rx.inbound.accept(&buf[..n])
-                        && let Body::Cursor(c) = p.body
-                    {
-                        return Ok(Some((p, c)));
-                    }
-                    continue;
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
-                // ICMP errors from an earlier send surface here; the next read goes on.
-                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => continue,
-                Err(e) => return Err(e.into()),
-            }
-            let left = deadline.saturating_duration_since(std::time::Instant::now());
-            if left.is_zero() {
-                return Ok(None);
-            }
-            let mut pfd = libc::pollfd {
-                fd: socket.as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            };
-            let ms = i32::try_from(left.as_millis().max(1)).unwrap_or(i32::MAX);
-            // SAFETY: one valid pollfd for the duration of the call.
-            unsafe { libc::poll(&mut pfd, 1, ms) };
-        }
+        recv_cursor_polling(socket, &mut self.rx.inbound, timeout)
     }
 
     /// Send a force command now (non-blocking; dropped if the socket buffer is full: a newer
@@ -371,6 +341,98 @@ impl HotReceiver {
     /// Rejected incoming packets by reason.
     pub fn rejects(&self) -> &RejectCounts {
         self.inbound.rejects()
+    }
+
+    /// UDP: this receiver without the async runtime (the socket leaves the reactor), for a
+    /// force-mapping thread that waits on the socket itself: one wake-up between a cursor's
+    /// arrival and its answer instead of two. QUIC datagrams need quinn's driver task: an
+    /// error (check [`HotReceiver::is_udp`] first). Call inside the runtime.
+    pub fn into_blocking(self) -> Result<BlockingReceiver, ClientError> {
+        match self.socket {
+            ReceiverSocket::Udp(s) => Ok(BlockingReceiver {
+                socket: s.into_std()?,
+                inbound: self.inbound,
+            }),
+            ReceiverSocket::Quic(..) => Err(ClientError::Protocol(
+                "blocking receive is for the UDP transport".into(),
+            )),
+        }
+    }
+
+    /// Whether this is the UDP transport's receiver (see [`HotReceiver::into_blocking`]).
+    pub fn is_udp(&self) -> bool {
+        matches!(self.socket, ReceiverSocket::Udp(_))
+    }
+}
+
+/// The UDP hot path's receiving half without a runtime ([`HotReceiver::into_blocking`]): the
+/// thread that answers cursors waits in `poll(2)` on the socket itself.
+pub struct BlockingReceiver {
+    socket: std::net::UdpSocket,
+    inbound: Inbound,
+}
+
+impl std::fmt::Debug for BlockingReceiver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BlockingReceiver")
+            .field("session", &self.inbound.session())
+            .finish()
+    }
+}
+
+impl BlockingReceiver {
+    /// Wait up to `timeout` for the next authentic cursor (`Ok(None)` when none came; a zero
+    /// timeout only takes what is already queued). Rejected packets are counted and skipped.
+    pub fn recv_cursor(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<Option<(Packet, CursorSample)>, ClientError> {
+        recv_cursor_polling(&self.socket, &mut self.inbound, timeout)
+    }
+
+    /// Rejected incoming packets by reason.
+    pub fn rejects(&self) -> &RejectCounts {
+        self.inbound.rejects()
+    }
+}
+
+/// The next authentic cursor on a non-blocking UDP `socket`, waiting in `poll(2)` up to
+/// `timeout`; no allocation.
+fn recv_cursor_polling(
+    socket: &std::net::UdpSocket,
+    inbound: &mut Inbound,
+    timeout: Duration,
+) -> Result<Option<(Packet, CursorSample)>, ClientError> {
+    use std::os::fd::AsRawFd as _;
+    let deadline = std::time::Instant::now() + timeout;
+    let mut buf = [0u8; MAX_PACKET_BYTES + 1];
+    loop {
+        match socket.recv(&mut buf) {
+            Ok(n) => {
+                if let Ok(p) = inbound.accept(&buf[..n])
+                    && let Body::Cursor(c) = p.body
+                {
+                    return Ok(Some((p, c)));
+                }
+                continue;
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+            // ICMP errors from an earlier send surface here; the next read goes on.
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => continue,
+            Err(e) => return Err(e.into()),
+        }
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            return Ok(None);
+        }
+        let mut pfd = libc::pollfd {
+            fd: socket.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        let ms = i32::try_from(left.as_millis().max(1)).unwrap_or(i32::MAX);
+        // SAFETY: one valid pollfd for the duration of the call.
+        unsafe { libc::poll(&mut pfd, 1, ms) };
     }
 }
 

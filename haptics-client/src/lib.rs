@@ -20,7 +20,9 @@ pub mod framing;
 pub mod quic;
 pub mod tls;
 
-pub use client::{Client, ClientConfig, ClientError, HotPath, HotReceiver, HotSender};
+pub use client::{
+    BlockingReceiver, Client, ClientConfig, ClientError, HotPath, HotReceiver, HotSender,
+};
 pub use framing::TransportError;
 
 /// Which transport serves the workstation.

@@ -6,8 +6,9 @@
 //! (sim-core's field force with VCP and friction for touch and paint, an anchor spring for the
 //! rope, the shaped probe's distributed springs against the surface samples for the probe), and
 //! returns the output in the device frame plus the [`InputEvent`] the simulation consumes.
-//! [`run`] is the thin driver: it parks on an empty cursor ring, takes the newest cursor (older
-//! ones it skips are counted), loads the snapshots with `ArcSwap::load` (lock-free), sends
+//! [`run`] is the thin driver: on UDP it waits in `poll(2)` on the session's socket itself (the
+//! cursor's arrival wakes this thread and no other), otherwise it parks on an empty cursor ring
+//! (QUIC, the mouse); it takes the newest cursor (older ones it skips are counted), loads the snapshots with `ArcSwap::load` (lock-free), sends
 //! through the session's [`HotSender`] unless the perceptual deadband holds the command back
 //! ([`ForceDeadband`], `run --force-deadband`, off by default; [`deadband_gate`]), pushes the
 //! event, and keeps period and work histograms.
@@ -19,8 +20,8 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use glam::{DQuat, DVec3};
-use haptics_client::HotSender;
 use haptics_client::client::ClientError;
+use haptics_client::{BlockingReceiver, HotSender};
 use hdrhistogram::Histogram;
 use protocol::packet::ModelKind;
 use protocol::{CursorSample, ForceCommand, ForceDeadband};
@@ -230,13 +231,24 @@ pub fn rope_output(x: DVec3, anchor: DVec3, stiffness: f64, max_force: f64) -> H
     }
 }
 
+/// One session's hot path as the force thread holds it.
+#[derive(Debug)]
+pub struct HotLink {
+    /// Where force commands go.
+    pub sender: HotSender,
+    /// UDP: the session's socket, which the force thread waits on itself, so a cursor wakes
+    /// one thread between its arrival and its answer (on QUIC, quinn's driver task receives
+    /// and the cursors come through the ring).
+    pub receiver: Option<BlockingReceiver>,
+}
+
 /// The ends of the force thread's hand-offs.
 #[derive(Debug)]
 pub struct ForcePorts {
     /// Cursors from the network side.
     pub cursors: rtrb::Consumer<CursorMsg>,
-    /// A fresh sender after each (re)connect, `None` when the session ended.
-    pub senders: rtrb::Consumer<Option<HotSender>>,
+    /// A fresh hot path after each (re)connect, `None` when the session ended.
+    pub senders: rtrb::Consumer<Option<HotLink>>,
     /// Events to the simulation.
     pub events: rtrb::Producer<InputEvent>,
 }
@@ -371,22 +383,50 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
     let priority = raise_priority();
     tracing::info!(priority, "force-mapping thread started");
     let mut sender: Option<HotSender> = None;
+    let mut receiver: Option<BlockingReceiver> = None;
     let mut clock = LoopTimer::new();
     let mut deadband = ForceDeadband::new(0.0);
     let epoch = Instant::now();
     while !shared.stopping() {
-        while let Ok(s) = ports.senders.pop() {
+        while let Ok(link) = ports.senders.pop() {
             // Rare (once per session); dropping an old sender here is the one free on this path.
-            sender = s;
+            (sender, receiver) = match link {
+                Some(l) => (Some(l.sender), l.receiver),
+                None => (None, None),
+            };
             mapper.field.reset();
             deadband.reset();
         }
         let mut newest = None;
         let mut skipped = 0u64;
-        while let Ok(c) = ports.cursors.pop() {
-            if newest.is_some() {
-                skipped += 1;
+        if let (Some(rx), Some(tx)) = (&mut receiver, &sender) {
+            // Wait on the socket; the timeout only bounds how late a new session or a stop is
+            // seen. Then take what else is queued, keeping the newest.
+            let mut wait = Duration::from_millis(5);
+            loop {
+                match rx.recv_cursor(wait) {
+                    Ok(Some((packet, cursor))) => {
+                        let net = &shared.net;
+                        net.cursors.fetch_add(1, Ordering::Relaxed);
+                        net.last_cursor_ns
+                            .store(tx.clock().now_ns(), Ordering::Relaxed);
+                        net.applied.on_cursor(&cursor);
+                        skipped += u64::from(newest.is_some());
+                        newest = Some(CursorMsg::new(&packet, cursor, Instant::now()));
+                        wait = Duration::ZERO;
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        // The network side sees the silence and reconnects.
+                        tracing::warn!("hot-path receive failed: {e}");
+                        receiver = None;
+                        break;
+                    }
+                }
             }
+        }
+        while let Ok(c) = ports.cursors.pop() {
+            skipped += u64::from(newest.is_some());
             newest = Some(c);
         }
         if skipped > 0 {
@@ -396,8 +436,11 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
                 .fetch_add(skipped, Ordering::Relaxed);
         }
         let Some(msg) = newest else {
-            // Unparked by the network side on every push; the timeout only bounds stop latency.
-            std::thread::park_timeout(Duration::from_millis(5));
+            if receiver.is_none() {
+                // Unparked by the cursors' producer on every push; the timeout only bounds
+                // stop latency.
+                std::thread::park_timeout(Duration::from_millis(5));
+            }
             continue;
         };
         let start = Instant::now();

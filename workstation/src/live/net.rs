@@ -4,8 +4,11 @@
 //! identity (handshake, `Welcome`; an unauthorized identity stops the workstation with the
 //! server's reason instead of retrying), wait for
 //! the first cursor (the UDP opener is re-sent until it arrives), split the hot path and hand
-//! the [`HotSender`](haptics_client::HotSender) to the force thread. Then, concurrently: every
-//! cursor goes into the force thread's ring (which it unparks); a `ClockPing` every 100 ms feeds
+//! it to the force thread ([`HotLink`]): on UDP the sender and the socket itself, which the
+//! force thread waits on (one wake-up from a cursor's arrival to its answer; this task no longer
+//! sees cursors and watches their silence through `NetStats::last_cursor_ns`); on QUIC the
+//! sender, while every cursor quinn delivers here goes into the force thread's ring (which it
+//! unparks). Then, concurrently: a `ClockPing` every 100 ms feeds
 //! a [`ClockEstimator`] (offset and its bound in [`NetStats`](super::shared::NetStats)); the
 //! server's periodic `Stats` give the cursor → force round trip it measured. When the session
 //! ends (server gone or restarted, connection lost, no cursor for [`CURSOR_SILENCE`]) the force
@@ -20,11 +23,12 @@ use std::time::{Duration, Instant};
 
 use haptics_client::client::ClientError;
 use haptics_client::tls::Identity;
-use haptics_client::{Client, ClientConfig, HotSender, TransportKind};
+use haptics_client::{Client, ClientConfig, TransportKind};
 use protocol::control::{ClockPing, ErrorCode, Stats};
 use protocol::{ClockEstimator, ClockSample, Control};
 use rustls::pki_types::CertificateDer;
 
+use super::force::HotLink;
 use super::shared::{CursorMsg, NetStats, PercentilesUs, Shared};
 
 /// A session whose cursor stream stops this long is over (the server streams at 1 kHz; UDP
@@ -235,8 +239,8 @@ pub fn client_identity(
 pub struct NetPorts {
     /// Cursors to the force thread.
     pub cursors: rtrb::Producer<CursorMsg>,
-    /// A sender per session to the force thread, `None` when the session ended.
-    pub senders: rtrb::Producer<Option<HotSender>>,
+    /// A hot path per session to the force thread, `None` when the session ended.
+    pub senders: rtrb::Producer<Option<HotLink>>,
     /// The force thread, unparked on every cursor.
     pub force_thread: Thread,
 }
@@ -366,9 +370,23 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
     let first = tokio::time::timeout(Duration::from_secs(3), hot.recv_cursor())
         .await
         .map_err(|_| ClientError::Timeout("the first cursor sample"))??;
-    let (mut rx, tx) = hot.split();
-    // One sender per session; the ring has room for a few (the force thread takes them at once).
-    if ports.senders.push(Some(tx)).is_err() {
+    let (rx, sender) = hot.split();
+    // UDP: the force thread waits on the socket; QUIC: cursors come through this task.
+    let (mut rx, receiver) = if rx.is_udp() {
+        (None, Some(rx.into_blocking()?))
+    } else {
+        (Some(rx), None)
+    };
+    shared
+        .net
+        .last_cursor_ns
+        .store(clock.now_ns(), Ordering::Relaxed);
+    // One link per session; the ring has room for a few (the force thread takes them at once).
+    if ports
+        .senders
+        .push(Some(HotLink { sender, receiver }))
+        .is_err()
+    {
         return Err(ClientError::Protocol(
             "force thread not taking senders".into(),
         ));
@@ -387,9 +405,16 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
             let _ = control.close("workstation stopping").await;
             return Ok(());
         }
+        let silent = || ClientError::Timeout("cursor samples (the server went silent)");
         tokio::select! {
-            r = tokio::time::timeout(CURSOR_SILENCE, rx.recv_cursor()) => {
-                let (packet, cursor) = r.map_err(|_| ClientError::Timeout("cursor samples (the server went silent)"))??;
+            r = async {
+                match &mut rx {
+                    Some(rx) => Some(tokio::time::timeout(CURSOR_SILENCE, rx.recv_cursor()).await),
+                    None => std::future::pending().await,
+                }
+            } => {
+                let (packet, cursor) = r.expect("pending without a receiver").map_err(|_| silent())??;
+                shared.net.last_cursor_ns.store(clock.now_ns(), Ordering::Relaxed);
                 shared.net.applied.on_cursor(&cursor);
                 push_cursor(ports, &shared.net, CursorMsg::new(&packet, cursor, Instant::now()));
             }
@@ -413,6 +438,10 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
                 _ => {}
             },
             _ = ping.tick() => {
+                let last = shared.net.last_cursor_ns.load(Ordering::Relaxed);
+                if clock.now_ns().saturating_sub(last) > CURSOR_SILENCE.as_nanos() as u64 {
+                    return Err(silent());
+                }
                 ping_id = ping_id.wrapping_add(1);
                 control.send(&Control::ClockPing(ClockPing { id: ping_id, t0_ns: clock.now_ns() })).await?;
             }

@@ -2,8 +2,8 @@
 //!
 //! | from → to | what | how | when full / empty |
 //! |---|---|---|---|
-//! | network → force | [`CursorMsg`] | `rtrb` ring, 64 | full: the newest cursor is dropped and counted (the force thread is late anyway); empty: the force thread parks until the network side unparks it |
-//! | network → force | `Some(HotSender)` after each (re)connect, `None` when the session ends | `rtrb` ring, 4 | full: cannot happen (two per session, taken every tick) |
+//! | network → force | `Some(HotLink)` after each (re)connect (the sender; on UDP also the receiving socket, which the force thread then waits on itself), `None` when the session ends | `rtrb` ring, 4 | full: cannot happen (two per session, taken every tick) |
+//! | network (QUIC) or mouse → force | [`CursorMsg`] | `rtrb` ring, 64 | full: the newest cursor is dropped and counted (the force thread is late anyway); empty: the force thread parks until the producer unparks it |
 //! | force → simulation | [`InputEvent`] (cursor in the scene, buttons, contact, force) | `rtrb` ring, 4096 | full: the event is dropped and counted (the simulation is inside a long operation; it sees a jump when it is back) |
 //! | simulation → force | the field grid snapshot and the [`ForceTool`] | [`ArcSwapOption`] / [`ArcSwap`]: immutable, swapped, never locked against the reader | the force thread always reads the newest; a missing grid means no contact |
 //! | simulation → rendering | [`RenderSnapshot`] (points in `Arc` chunks, unchanged ones shared with the last snapshot) | [`ArcSwapOption`] | the renderer draws the newest |
@@ -339,6 +339,10 @@ pub struct NetStats {
     pub sessions: AtomicU64,
     /// Cursor samples received.
     pub cursors: AtomicU64,
+    /// When the last cursor arrived (the session's client clock, ns): the network side ends a
+    /// session silent for [`CURSOR_SILENCE`](super::net::CURSOR_SILENCE) when the force
+    /// thread takes the cursors off the socket itself (UDP).
+    pub last_cursor_ns: AtomicU64,
     /// Cursors dropped because the force thread's ring was full.
     pub cursors_dropped: AtomicU64,
     /// Cursors the force thread skipped because a newer one was already waiting.
