@@ -15,7 +15,7 @@ use tokio::sync::watch;
 use crate::clock::MonoClock;
 use crate::device::Device;
 use crate::servo::driver::{self, CursorSink, DriverConfig, ServoThreads};
-use crate::servo::rt::RtRequest;
+use crate::servo::rt::{self, RtRequest};
 use crate::servo::{SafetyParams, ServoParams};
 use crate::telemetry::ServoStats;
 use crate::tls::{self, AuthorizedClients, Identity};
@@ -121,11 +121,18 @@ impl Server {
         let mut driver_cfg = opts.driver.clone();
         driver_cfg.params = driver_cfg.params.limited_to(&info);
         let params = driver_cfg.params;
-        let runtime = tokio::runtime::Builder::new_multi_thread()
+        // The hot path's own threads run just below the servo (see `rt::raise_hot_path_thread`);
+        // on QUIC that includes the network worker, which receives the datagrams.
+        let hot_priority = rt::hot_path_priority(driver_cfg.rt.fifo_priority);
+        let mut builder = tokio::runtime::Builder::new_multi_thread();
+        builder
             .worker_threads(1)
             .thread_name("network")
-            .enable_all()
-            .build()?;
+            .enable_all();
+        if opts.transport == TransportKind::Quic {
+            builder.on_thread_start(move || rt::raise_hot_path_thread(hot_priority, "network"));
+        }
+        let runtime = builder.build()?;
         let tls_cfg = tls::server_config(&opts.identity)?;
         let clock = MonoClock::new();
         let (shutdown, shutdown_rx) = watch::channel(false);
@@ -145,7 +152,12 @@ impl Server {
                     opts.net,
                     opts.authorized.clone(),
                 ));
-                let receiver = udp::spawn_receiver(Arc::clone(&shared), sock, shutdown_rx.clone())?;
+                let receiver = udp::spawn_receiver(
+                    Arc::clone(&shared),
+                    sock,
+                    shutdown_rx.clone(),
+                    hot_priority,
+                )?;
                 let _guard = runtime.enter();
                 runtime.spawn(udp::run(Arc::clone(&shared), tcp, tls_cfg, shutdown_rx));
                 (local_addr, shared, servo, None, Some(receiver))
@@ -162,7 +174,10 @@ impl Server {
                     let (current, stop) = (Arc::clone(&current), Arc::clone(&sender_stop));
                     std::thread::Builder::new()
                         .name("quic-sender".into())
-                        .spawn(move || quic::sender(rx, current, stop))?
+                        .spawn(move || {
+                            rt::raise_hot_path_thread(hot_priority, "QUIC sender");
+                            quic::sender(rx, current, stop)
+                        })?
                 };
                 let sink = CursorSink::Ring(tx, sender.thread().clone());
                 let (link, servo) = driver::spawn(device, sink, driver_cfg, clock)?;

@@ -38,14 +38,23 @@ pub fn bind(listen: SocketAddr) -> std::io::Result<(TcpListener, UdpSocket)> {
 
 /// Start the hot-path receiver thread ([`receive`]); it ends within 100 ms of `shutdown`
 /// turning true, and the server joins it so the port is free when shutdown returns.
+///
+/// With `fifo_priority` the thread asks for `SCHED_FIFO` at that priority (the servo's minus
+/// one): a command then reaches the servo ring within microseconds of its arrival even when
+/// ordinary threads keep both cores busy, instead of waiting for the fair scheduler's turn
+/// (measured in docs/BENCHMARKS.md, "Latency runs"; [`crate::servo::rt::raise_hot_path_thread`]).
 pub fn spawn_receiver(
     shared: Arc<Shared>,
     udp: UdpSocket,
     shutdown: watch::Receiver<bool>,
+    fifo_priority: Option<i32>,
 ) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("udp-recv".into())
-        .spawn(move || receive(&shared, &udp, &shutdown))
+        .spawn(move || {
+            crate::servo::rt::raise_hot_path_thread(fifo_priority, "hot-path receiver");
+            receive(&shared, &udp, &shutdown)
+        })
 }
 
 /// Serve the control connections until `shutdown` turns true.
