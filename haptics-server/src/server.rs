@@ -121,18 +121,17 @@ impl Server {
         let mut driver_cfg = opts.driver.clone();
         driver_cfg.params = driver_cfg.params.limited_to(&info);
         let params = driver_cfg.params;
-        // The hot path's own threads run just below the servo (see `rt::raise_hot_path_thread`);
-        // on QUIC that includes the network worker, which receives the datagrams.
+        // The UDP receiver runs just below the servo (see `rt::raise_hot_path_thread`). QUIC's
+        // receiving is quinn's whole endpoint driver (decryption, acknowledgements, timers) on
+        // the network worker: raised too, with the QUIC sender, it took the cores from the
+        // workstation's force thread in the one-machine demo (next tick 71-93 % against
+        // 84-92 % without), so both stay ordinary threads.
         let hot_priority = rt::hot_path_priority(driver_cfg.rt.fifo_priority);
-        let mut builder = tokio::runtime::Builder::new_multi_thread();
-        builder
+        let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .thread_name("network")
-            .enable_all();
-        if opts.transport == TransportKind::Quic {
-            builder.on_thread_start(move || rt::raise_hot_path_thread(hot_priority, "network"));
-        }
-        let runtime = builder.build()?;
+            .enable_all()
+            .build()?;
         let tls_cfg = tls::server_config(&opts.identity)?;
         let clock = MonoClock::new();
         let (shutdown, shutdown_rx) = watch::channel(false);
@@ -174,10 +173,7 @@ impl Server {
                     let (current, stop) = (Arc::clone(&current), Arc::clone(&sender_stop));
                     std::thread::Builder::new()
                         .name("quic-sender".into())
-                        .spawn(move || {
-                            rt::raise_hot_path_thread(hot_priority, "QUIC sender");
-                            quic::sender(rx, current, stop)
-                        })?
+                        .spawn(move || quic::sender(rx, current, stop))?
                 };
                 let sink = CursorSink::Ring(tx, sender.thread().clone());
                 let (link, servo) = driver::spawn(device, sink, driver_cfg, clock)?;
