@@ -3,7 +3,8 @@
 //!
 //! Contract: [`Stepper::step`] advances the model by exactly `dt` or leaves it exactly as it was.
 //! The state is saved at the step boundary; if any displacement or velocity comes out non-finite,
-//! the state is restored and [`StepError::NonFinite`] names the node. External forces are read,
+//! the state is restored and [`StepError::NonFinite`] names the node; values below
+//! [`FLUSH_BELOW`] are flushed to zero (no subnormal slow-down). External forces are read,
 //! never cleared. After the first step on a model of a given size the stepper allocates nothing.
 //!
 //! Forward Euler: each step runs `2^level` sub-steps; when `|ü|` exceeds the threshold at any
@@ -14,6 +15,11 @@
 
 use crate::dynamics::cg::{CgScratch, solve_be};
 use crate::dynamics::model::DynamicGrid;
+
+/// Displacements (m) and velocities (m/s) below this are set to zero after each step: far
+/// below anything physical, and far enough above the subnormal floats (< 2.2e-308) that
+/// their squares (energies) and products with stiffnesses stay normal.
+pub const FLUSH_BELOW: f64 = 1e-150;
 
 /// Which scheme advances the model, with its settings.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -183,6 +189,15 @@ impl Stepper {
             model.u.copy_from_slice(&self.u0);
             model.v.copy_from_slice(&self.v0);
             return Err(StepError::NonFinite { slot });
+        }
+        // What has decayed to physically nothing becomes exactly nothing: a settled region's
+        // displacements otherwise sink into subnormal floats, on which every later step runs
+        // tens of times slower (measured: a decayed 216-node model stepped at ~40 µs per
+        // forward-Euler sub-step instead of ~1 µs).
+        for x in model.u.iter_mut().chain(model.v.iter_mut()) {
+            if x.abs() < FLUSH_BELOW {
+                *x = 0.0;
+            }
         }
         model.advance_time(dt);
         Ok(report)
