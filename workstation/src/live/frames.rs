@@ -4,10 +4,11 @@
 //! Vulkan driver is a software one, or none is installed). The window draws with the same
 //! splats and overlays.
 //!
-//! Points become lit surfel splats oriented by their normals, each of a radius from its local
-//! spacing (the distance to its 6th nearest neighbour, recomputed only for the points that
-//! moved, appeared or disappeared and their neighbours: [`SplatCache`]), in its colour; overlays: the probe (when the probe is the tool), the
-//! haptic cursor, the sculpting region box and the contact force arrow.
+//! Points become elliptical surface splats in the plane of their normals, sized and stretched by
+//! their 12 nearest neighbours (`render::splat_shape`; recomputed only for the points that
+//! moved, appeared or disappeared and their neighbours: [`SplatCache`]), in their colours;
+//! overlays: the probe (when the probe is the tool), the haptic cursor, the sculpting region
+//! box and the contact force arrow.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -16,9 +17,8 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use render::{BackendChoice, Camera, Ellipsoid, HeadlessRenderer, Image, Overlay, Splat};
-use sim_core::knn::PointIndex;
 
-use super::neighbours::{Edits, NeighbourCache};
+use super::neighbours::{Edits, NeighbourCache, NeighbourShape};
 use super::points::ChunkedPoints;
 use super::scene_file::{RenderSpec, ToolKind};
 use super::shared::{RenderSnapshot, Shared};
@@ -26,21 +26,12 @@ use super::shared::{RenderSnapshot, Shared};
 /// Length of the drawn force arrow per newton (m/N).
 pub const ARROW_M_PER_N: f64 = 0.05;
 
-/// Splat radii from local spacing: the distance to the 6th nearest neighbour, so that the
-/// disks of an irregular (randomly sampled) surface overlap without holes.
-pub fn splat_radii(positions: &[glam::DVec3]) -> Vec<f32> {
-    const K: usize = 6;
-    if positions.len() <= K {
-        return vec![1e-3; positions.len()];
-    }
-    let index = PointIndex::new(positions);
-    positions
-        .iter()
-        .map(|&p| {
-            let n = index.nearest_k(p, K + 1);
-            n.last().map_or(1e-3, |x| x.1.max(1e-6)) as f32
-        })
-        .collect()
+/// Splat shapes of `positions` from scratch (every point's [`NeighbourShape`], k-d tree): what
+/// [`SplatUpdate::Full`] recomputes whenever anything moved.
+pub fn splat_shapes(positions: &[glam::DVec3]) -> Vec<NeighbourShape> {
+    let mut cache = NeighbourCache::default();
+    cache.rebuild(positions.to_vec());
+    cache.shapes().to_vec()
 }
 
 /// How a [`SplatCache`] keeps the radii up to date.
@@ -50,8 +41,8 @@ pub enum SplatUpdate {
     /// they entered or left ([`NeighbourCache`]).
     #[default]
     Incremental,
-    /// The old way, kept to measure against: when any point changed, recompute every radius
-    /// ([`splat_radii`]) and rewrite every splat.
+    /// The old way, kept to measure against: when any point changed, recompute every shape
+    /// ([`splat_shapes`]) and rewrite every splat.
     Full,
 }
 
@@ -79,6 +70,8 @@ pub struct SplatCache {
     /// `(first point, chunk id)` of the chunks of the last snapshot.
     seen: Vec<(usize, u64)>,
     neighbours: NeighbourCache,
+    /// [`SplatUpdate::Full`]: the shapes of the last full recompute.
+    full_shapes: Vec<NeighbourShape>,
     splats: Vec<Splat>,
     edits: Edits,
     recolored: Vec<u32>,
@@ -143,7 +136,7 @@ impl SplatCache {
                 if i >= old || pos[i] != *p {
                     self.edits.set.push((i as u32, *p));
                 } else {
-                    let want = splat(*p, c.normals[k], c.colors[k], self.splats[i].radius);
+                    let want = splat(*p, c.normals[k], c.colors[k], &self.neighbours.shapes()[i]);
                     if want != self.splats[i] {
                         self.recolored.push(i as u32);
                     }
@@ -170,7 +163,7 @@ impl SplatCache {
             let i = i as usize;
             let j = self.starts.partition_point(|&s| s <= i) - 1;
             let (c, k) = (&points.chunks()[j], i - self.starts[j]);
-            self.splats[i] = splat(c.positions[k], c.normals[k], c.colors[k], shapes[i].radius);
+            self.splats[i] = splat(c.positions[k], c.normals[k], c.colors[k], &shapes[i]);
             rewritten += 1;
         }
         self.last = SplatWork {
@@ -187,17 +180,7 @@ impl SplatCache {
         let mut work = SplatWork::default();
         if changed {
             let pos: Vec<DVec3> = points.positions().copied().collect();
-            let radii = splat_radii(&pos);
-            self.neighbours = NeighbourCache::default();
-            self.splats.clear();
-            self.splats.extend(
-                points
-                    .chunks()
-                    .iter()
-                    .flat_map(|c| (0..c.len()).map(move |k| (c, k)))
-                    .zip(radii)
-                    .map(|((c, k), r)| splat(c.positions[k], c.normals[k], c.colors[k], r)),
-            );
+            self.full_shapes = splat_shapes(&pos);
             self.seen = vec![key];
             work = SplatWork {
                 moved: pos.len(),
@@ -206,28 +189,29 @@ impl SplatCache {
             };
         } else {
             // The old cache rewrote every splat every frame.
-            let radii: Vec<f32> = self.splats.iter().map(|s| s.radius).collect();
-            self.splats.clear();
-            self.splats.extend(
-                points
-                    .chunks()
-                    .iter()
-                    .flat_map(|c| (0..c.len()).map(move |k| (c, k)))
-                    .zip(radii)
-                    .map(|((c, k), r)| splat(c.positions[k], c.normals[k], c.colors[k], r)),
-            );
-            work.rewritten = self.splats.len();
+            work.rewritten = self.full_shapes.len();
         }
+        self.splats.clear();
+        self.splats.extend(
+            points
+                .chunks()
+                .iter()
+                .flat_map(|c| (0..c.len()).map(move |k| (c, k)))
+                .zip(&self.full_shapes)
+                .map(|((c, k), shape)| splat(c.positions[k], c.normals[k], c.colors[k], shape)),
+        );
         self.last = work;
         work
     }
 }
 
-fn splat(p: DVec3, n: DVec3, c: [u8; 3], radius: f32) -> Splat {
-    Splat::disk(
+fn splat(p: DVec3, n: DVec3, c: [u8; 3], shape: &NeighbourShape) -> Splat {
+    Splat::ellipse(
         p.as_vec3().to_array(),
         n.as_vec3().to_array(),
-        radius,
+        shape.axis,
+        shape.radius,
+        shape.minor_radius,
         [c[0], c[1], c[2], 255],
     )
 }
@@ -491,12 +475,14 @@ mod tests {
             let mut full = SplatCache::new(SplatUpdate::Full);
             full.update(&snap);
             assert_eq!(inc.current(), full.current(), "round {round}");
-            let radii = splat_radii(&p);
+            let shapes = splat_shapes(&p);
             assert!(
                 inc.current()
                     .iter()
-                    .zip(&radii)
-                    .all(|(s, r)| s.radius == *r)
+                    .zip(&shapes)
+                    .all(|(s, r)| s.radius == r.radius
+                        && s.minor_radius == r.minor_radius
+                        && s.axis == r.axis)
             );
         }
         // Nothing changed: nothing recomputed or rewritten.

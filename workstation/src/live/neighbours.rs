@@ -1,6 +1,6 @@
-//! Per-point data derived from each point's nearest neighbours (today the splat radius, the
-//! distance to the [`K`]-th nearest neighbour), kept up to date incrementally as points move,
-//! appear and disappear.
+//! Per-point data derived from each point's nearest neighbours (the elliptical splat, from the
+//! [`K`] nearest: [`NeighbourShape`]), kept up to date incrementally as points move, appear and
+//! disappear.
 //!
 //! [`NeighbourCache::rebuild`] computes every point's [`NeighbourShape`] with the k-d tree (in
 //! parallel) and indexes the points twice: in a hash grid of cells two typical radii wide (for
@@ -11,9 +11,8 @@
 //! changed points themselves, are recomputed, by a ring search of the grid. The k-d tree is
 //! never rebuilt on this path.
 //!
-//! The shape is the one place that reads the neighbours: an elliptical splat would compute its
-//! axes from the same neighbour list in [`NeighbourShape::from_nearest`] (its ball, and so the
-//! incremental rule, stays the same).
+//! The shape is the one place that reads the neighbours ([`NeighbourShape::from_nearest`]): its
+//! ball is the K-th neighbour's, so the incremental rule above holds for it.
 //!
 //! Contract: after any sequence of updates the shapes equal a [`NeighbourCache::rebuild`] of
 //! the same positions (the tests compare bit for bit). Large edits (over a quarter of the
@@ -26,8 +25,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use sim_core::knn::PointIndex;
 
-/// Neighbours a shape is derived from (the point itself not counted).
-pub const K: usize = 6;
+/// Neighbours a shape is derived from (the point itself not counted): within the 10–16
+/// [`render::splat_shape`] asks for, so the neighbours across the sparse direction of an
+/// anisotropic sampling (a scan's rows) are among them.
+pub const K: usize = 12;
 
 /// Radius of every point when there are at most [`K`] points (no K-th neighbour), m.
 pub const LONE_RADIUS: f32 = 1e-3;
@@ -38,22 +39,64 @@ const PARALLEL_FROM: usize = 20_000;
 /// Rings a k-NN search scans before it falls back to checking every point.
 const MAX_RINGS: i32 = 32;
 
-/// What a splat takes from its point's neighbours.
+/// What a splat takes from its point's neighbours: an ellipse in the tangent plane
+/// ([`render::splat_shape`]), sized by the local spacing and stretched where the sampling is
+/// anisotropic.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NeighbourShape {
-    /// Splat radius (m): the distance to the K-th nearest neighbour, at least 1 µm.
+    /// Major semi-axis (m), at least 1 µm.
     pub radius: f32,
+    /// Minor semi-axis (m, ≤ `radius`).
+    pub minor_radius: f32,
+    /// Major axis, a unit tangent; zero for a disk of `radius`.
+    pub axis: [f32; 3],
 }
 
 impl NeighbourShape {
-    /// The shape of a point from its `K + 1` nearest points (itself included), nearest first,
-    /// as `(index, distance)`; `positions` are all points, for shapes that need the neighbours'
-    /// positions (elliptical axes).
-    pub fn from_nearest(_p: DVec3, nearest: &[(u32, f64)], _positions: &[DVec3]) -> Self {
+    /// A disk of `radius` m.
+    pub fn disk(radius: f32) -> Self {
         Self {
-            radius: nearest
+            radius,
+            minor_radius: radius,
+            axis: [0.0; 3],
+        }
+    }
+
+    /// The shape of a point from its `K + 1` nearest points (itself included), nearest first,
+    /// as `(index, distance)`; `positions` are all points. The tangent plane is the
+    /// neighbours' own (the least principal axis of their spread about the point), so the
+    /// shape depends on positions only and the cache's incremental rule holds; the renderer
+    /// lays the axis into the plane of the point's actual normal. Degenerate neighbourhoods
+    /// (collinear, coincident) fall back to a disk through the K-th neighbour.
+    pub fn from_nearest(p: DVec3, nearest: &[(u32, f64)], positions: &[DVec3]) -> Self {
+        let disk = Self::disk(
+            nearest
                 .last()
                 .map_or(f64::from(LONE_RADIUS), |x| x.1.max(1e-6)) as f32,
+        );
+        let mut offsets = [[0.0f32; 3]; K];
+        let mut count = 0;
+        let mut cov = glam::DMat3::ZERO;
+        for &(j, _) in nearest.iter().filter(|x| x.1 > 0.0).take(K) {
+            let d = positions[j as usize] - p;
+            cov += glam::DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+            offsets[count] = positions[j as usize].as_vec3().to_array();
+            count += 1;
+        }
+        let Some((_, vectors)) = sim_core::linalg::sym3_eigen(cov) else {
+            return disk;
+        };
+        match render::splat_shape(
+            p.as_vec3().to_array(),
+            vectors[0].as_vec3().to_array(),
+            &offsets[..count],
+        ) {
+            Some(s) if s.radius.is_finite() && s.radius > 0.0 => Self {
+                radius: s.radius.max(1e-6),
+                minor_radius: s.minor_radius.clamp(1e-6, s.radius.max(1e-6)),
+                axis: s.axis,
+            },
+            _ => disk,
         }
     }
 }
@@ -301,12 +344,7 @@ impl NeighbourCache {
         self.marked = vec![0; n];
         self.epoch = 0;
         if n <= K {
-            self.shapes = vec![
-                NeighbourShape {
-                    radius: LONE_RADIUS
-                };
-                n
-            ];
+            self.shapes = vec![NeighbourShape::disk(LONE_RADIUS); n];
             self.reach = vec![f64::INFINITY; n];
             self.index = CellIndex::default();
             self.balls = ReachIndex::default();
@@ -589,5 +627,53 @@ mod tests {
         c.update(&e);
         assert_eq!(c.shapes(), full(&more));
         assert!(c.shapes().iter().all(|s| s.radius != LONE_RADIUS));
+    }
+
+    #[test]
+    fn rows_of_a_scan_give_ellipses_across_the_rows_and_an_even_sampling_gives_disks() {
+        // A tilted plane sampled like a range scan: 1 mm along the rows, 3 mm between them.
+        let (t1, t2) = (DVec3::new(1.0, 0.0, 0.3).normalize(), DVec3::Y);
+        let n = t1.cross(t2);
+        let grid = |h1: f64, h2: f64| -> Vec<DVec3> {
+            (0..40)
+                .flat_map(|i| (0..40).map(move |j| (i, j)))
+                .map(|(i, j)| {
+                    // A little jitter, so no two distances tie.
+                    let w = ((i * 40 + j) as f64 * 0.618_034).fract() * 1e-5;
+                    t1 * (i as f64 * h1 + w) + t2 * (j as f64 * h2 - w)
+                })
+                .collect()
+        };
+        let mut c = NeighbourCache::default();
+        c.rebuild(grid(0.001, 0.003));
+        let s = c.shapes()[20 * 40 + 20];
+        let axis = DVec3::from(s.axis.map(f64::from));
+        assert!(
+            axis.dot(t2).abs() > 0.95,
+            "major axis across the rows: {s:?}"
+        );
+        assert!(axis.dot(n).abs() < 1e-3, "axis in the tangent plane: {s:?}");
+        assert!(s.minor_radius < 0.8 * s.radius, "{s:?}");
+        // Reaches across the 3 mm to the next row and the 1 mm to the next sample; the minor
+        // axis also covers the six nearest (up to 3 mm along the row, `splat_shape`), at the
+        // flattest aspect it allows.
+        assert!((0.003..0.0055).contains(&f64::from(s.radius)), "{s:?}");
+        assert!(
+            (0.001..0.0035).contains(&f64::from(s.minor_radius)),
+            "{s:?}"
+        );
+        // Even sampling (a hexagonal lattice, 2 mm): round.
+        let hex: Vec<DVec3> = (0..40)
+            .flat_map(|i| (0..40).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let w = ((i * 40 + j) as f64 * 0.618_034).fract() * 1e-6;
+                let x = (i as f64 + 0.5 * (j % 2) as f64) * 0.002 + w;
+                t1 * x + t2 * (j as f64 * 0.002 * 0.75f64.sqrt())
+            })
+            .collect();
+        c.rebuild(hex);
+        let s = c.shapes()[20 * 40 + 20];
+        assert!(s.minor_radius >= 0.95 * s.radius, "{s:?}");
+        assert!((0.0019..0.0025).contains(&f64::from(s.radius)), "{s:?}");
     }
 }
