@@ -437,14 +437,17 @@ fn recv_cursor_polling(
 }
 
 /// The sending half of a [`HotPath`]: synchronous and non-blocking, so a force-mapping thread
-/// owns it and sends without a runtime. Encoding reuses one buffer (no allocation on UDP;
-/// quinn copies each datagram into a `Bytes`).
+/// owns it and sends without a runtime. Encoding reuses one buffer, and on QUIC each
+/// datagram's `Bytes` is cut from a reused block ([`quic::DatagramArena`]): no allocation per
+/// command on either transport.
 pub struct HotSender {
     socket: SenderSocket,
     outbound: Outbound,
     clock: MonoClock,
     buf: [u8; MAX_PACKET_BYTES],
     last_sent: Option<(u32, u64)>,
+    /// QUIC: where each datagram's `Bytes` is cut from (no allocation per datagram).
+    arena: quic::DatagramArena,
 }
 
 impl std::fmt::Debug for HotSender {
@@ -463,7 +466,13 @@ impl HotSender {
         let (sequence, now) = (self.outbound.next_sequence(), self.clock.now_ns());
         let len = self.outbound.encode(now, Body::Force(*cmd), &mut self.buf);
         self.last_sent = Some((sequence, now));
-        match self.send_raw(&self.buf[..len]) {
+        let sent = match &self.socket {
+            SenderSocket::Quic(c) => c
+                .send_datagram(self.arena.bytes(&self.buf[..len]))
+                .map_err(quic_send_error),
+            SenderSocket::Udp(_) => self.send_raw(&self.buf[..len]),
+        };
+        match sent {
             Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(()),
             other => other,
         }
@@ -476,10 +485,7 @@ impl HotSender {
             SenderSocket::Udp(s) => s.send(bytes).map(|_| ()).map_err(ClientError::Io),
             SenderSocket::Quic(c) => c
                 .send_datagram(bytes::Bytes::copy_from_slice(bytes))
-                .map_err(|e| match e {
-                    quinn::SendDatagramError::ConnectionLost(_) => ClientError::Closed,
-                    e => ClientError::Quic(e.to_string()),
-                }),
+                .map_err(quic_send_error),
         }
     }
 
@@ -493,6 +499,13 @@ impl HotSender {
     /// [`protocol::ForceAck`] to time round trips.
     pub fn last_sent(&self) -> Option<(u32, u64)> {
         self.last_sent
+    }
+}
+
+fn quic_send_error(e: quinn::SendDatagramError) -> ClientError {
+    match e {
+        quinn::SendDatagramError::ConnectionLost(_) => ClientError::Closed,
+        e => ClientError::Quic(e.to_string()),
     }
 }
 
@@ -615,6 +628,7 @@ impl Client {
                 clock: MonoClock::new(),
                 buf: [0; MAX_PACKET_BYTES],
                 last_sent: None,
+                arena: quic::DatagramArena::new(),
             },
             key,
             streaming: false,

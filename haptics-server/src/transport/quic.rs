@@ -38,13 +38,15 @@ pub type Current = Arc<Mutex<Option<quinn::Connection>>>;
 
 /// The sender thread: drains the servo's cursor ring into the current connection.
 pub fn sender(mut rx: rtrb::Consumer<Datagram>, current: Current, stop: Arc<AtomicBool>) {
+    // Each datagram's `Bytes` is cut from a reused block: no allocation per cursor.
+    let mut arena = haptics_client::quic::DatagramArena::new();
     while !stop.load(Ordering::Acquire) {
         std::thread::park_timeout(Duration::from_millis(50));
         while let Ok(d) = rx.pop() {
             let conn = current.lock().ok().and_then(|c| c.clone());
             if let Some(conn) = conn {
                 // Fails only when the peer disabled datagrams or the connection is gone.
-                let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(&d.bytes[..d.len]));
+                let _ = conn.send_datagram(arena.bytes(&d.bytes[..d.len]));
             }
         }
     }

@@ -9,9 +9,10 @@
 //! | simulation → rendering | [`RenderSnapshot`] (points in `Arc` chunks, unchanged ones shared with the last snapshot) | [`ArcSwapOption`] | the renderer draws the newest |
 //! | force → anyone | loop statistics, the last force and contact | atomics in [`HapticMonitor`] and [`LoopStats`] | — |
 //!
-//! The force thread's per-tick path takes no lock and allocates nothing on UDP: ring pushes and
+//! The force thread's per-tick path allocates nothing, and takes no lock on UDP: ring pushes and
 //! pops are wait-free, `ArcSwap::load` is lock-free, statistics are relaxed atomics. On QUIC,
-//! quinn copies each datagram into a `Bytes` and locks its connection inside `send_datagram`.
+//! each datagram's `Bytes` is cut from a reused block (`quic::DatagramArena`, no allocation)
+//! and quinn locks its connection inside `send_datagram`.
 //! Frees are kept off it as far as the hand-offs allow: the simulation holds each snapshot it
 //! replaced until its next replacement, so the last reference is normally dropped there (only a
 //! force thread preempted across two replacements drops one itself), and a session's sender is
