@@ -233,9 +233,30 @@ fn the_force_felt_pressing_a_sphere_is_stiffness_times_depth_over_quic() {
     force_is_stiffness_times_depth(TransportKind::Quic);
 }
 
+/// A stall of the whole machine longer than the server's watchdog (commands silent for 30 ms;
+/// the VM host here sometimes takes both cores for longer) fades the output to zero, and the
+/// safety gate then waits for the hand to ease off before engaging again, which this fixed
+/// hand never does. Such an attempt says nothing about the force mapping, so it is repeated
+/// (3 attempts at most, each repeat printed with its cause); the comparison is the same.
 fn force_is_stiffness_times_depth(transport: TransportKind) {
+    const ATTEMPTS: usize = 3;
+    for attempt in 1..=ATTEMPTS {
+        match press_and_compare(transport) {
+            Ok(()) => return,
+            Err(fades) if attempt < ATTEMPTS => eprintln!(
+                "attempt {attempt}: the watchdog faded the output {fades} time(s) (a stall of \
+                 the machine); repeating"
+            ),
+            Err(fades) => panic!("the watchdog faded the output in every attempt ({fades})"),
+        }
+    }
+}
+
+/// Press, settle, compare the felt force with k × depth; `Err(fades)` when the server's
+/// watchdog faded the output during the comparison.
+fn press_and_compare(transport: TransportKind) -> Result<(), u64> {
     let scene = scene(TOP_HALF, "");
-    let (_server, monitor, cfg) = server_with(
+    let (server, monitor, cfg) = server_with(
         press_path(0.006),
         ServerOptions::for_tests(transport).unwrap(),
     );
@@ -246,6 +267,8 @@ fn force_is_stiffness_times_depth(transport: TransportKind) {
     wait_for("contact", Duration::from_secs(10), || {
         monitor.last_force().length() > 0.3
     });
+    // A fade from here on leaves the output at zero (the hand stays in the surface).
+    let fades_before = server.servo_stats().watchdog_fades;
     std::thread::sleep(Duration::from_millis(800));
     let mut errors = Vec::new();
     for _ in 0..100 {
@@ -257,9 +280,14 @@ fn force_is_stiffness_times_depth(transport: TransportKind) {
             depth > 5e-4,
             "the stylus rests in the surface (depth {depth:e} m)"
         );
+        let fades = server.servo_stats().watchdog_fades - fades_before;
+        if f == DVec3::ZERO && fades > 0 {
+            ws.finish().unwrap();
+            return Err(fades);
+        }
         assert!(
             f.normalize().dot(x.normalize()) > 0.95,
-            "force {f:?} points out of the sphere at {x:?}"
+            "force {f:?} points out of the sphere at {x:?} (watchdog fades: {fades})"
         );
         errors.push((f.length() - expected).abs() / expected);
         std::thread::sleep(Duration::from_millis(10));
@@ -273,6 +301,7 @@ fn force_is_stiffness_times_depth(transport: TransportKind) {
         "median relative error {median:.3} (sorted: {errors:?})"
     );
     ws.finish().unwrap();
+    Ok(())
 }
 
 #[test]
