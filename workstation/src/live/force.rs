@@ -8,10 +8,10 @@
 //! returns the output in the device frame plus the [`InputEvent`] the simulation consumes.
 //! [`run`] is the thin driver: on UDP it waits in `poll(2)` on the session's socket itself (the
 //! cursor's arrival wakes this thread and no other), otherwise it parks on an empty cursor ring
-//! (QUIC, the mouse); it takes the newest cursor (older ones it skips are counted), loads the snapshots with `ArcSwap::load` (lock-free), sends
-//! through the session's [`HotSender`] unless the perceptual deadband holds the command back
-//! ([`ForceDeadband`], `run --force-deadband`, off by default; [`deadband_gate`]), pushes the
-//! event, and keeps period and work histograms.
+//! (QUIC, the mouse); it takes the newest cursor (older ones it skips are counted), loads the
+//! snapshots with `ArcSwap::load` (lock-free), sends through the session's [`HotSender`] unless
+//! the perceptual deadband holds the command back ([`ForceDeadband`], `run --force-deadband`,
+//! off by default; [`deadband_gate`]), pushes the event, and keeps period and work histograms.
 //! Nothing on that path allocates (the histograms are sized at start) or locks, except quinn's
 //! connection lock inside `send_datagram` on QUIC.
 
