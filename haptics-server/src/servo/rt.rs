@@ -66,9 +66,9 @@ pub fn setup_current_thread(req: RtRequest) -> RtReport {
     report
 }
 
-/// Give a thread on the hot path (the UDP receiver) `SCHED_FIFO` at `priority`, so a command or cursor crossing it is not left waiting for the
-/// fair scheduler's turn when ordinary threads keep the cores busy. `None`: nothing; refused:
-/// a warning naming `who`, and the thread runs as it is.
+/// Give a thread on the hot path (the UDP receiver) `SCHED_FIFO` at `priority`, so a command
+/// crossing it is not left waiting for the fair scheduler's turn when ordinary threads keep the
+/// cores busy. `None`: nothing; refused: a warning naming `who`, and the thread runs as it is.
 pub fn raise_hot_path_thread(priority: Option<i32>, who: &str) {
     let report = setup_current_thread(RtRequest {
         fifo_priority: priority,

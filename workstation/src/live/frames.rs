@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use render::{BackendChoice, Camera, Ellipsoid, HeadlessRenderer, Image, Overlay, Splat};
 
-use super::neighbours::{Edits, NeighbourCache, NeighbourShape};
+use super::neighbours::{Edits, NeighbourCache, NeighbourShape, shapes_and_reach};
 use super::points::ChunkedPoints;
 use super::scene_file::{RenderSpec, ToolKind};
 use super::shared::{RenderSnapshot, Shared};
@@ -26,12 +26,10 @@ use super::shared::{RenderSnapshot, Shared};
 /// Length of the drawn force arrow per newton (m/N).
 pub const ARROW_M_PER_N: f64 = 0.05;
 
-/// Splat shapes of `positions` from scratch (every point's [`NeighbourShape`], k-d tree): what
-/// [`SplatUpdate::Full`] recomputes whenever anything moved.
+/// Splat shapes of `positions` from scratch (every point's [`NeighbourShape`], k-d tree, no
+/// index kept): what [`SplatUpdate::Full`] recomputes whenever anything moved.
 pub fn splat_shapes(positions: &[glam::DVec3]) -> Vec<NeighbourShape> {
-    let mut cache = NeighbourCache::default();
-    cache.rebuild(positions.to_vec());
-    cache.shapes().to_vec()
+    shapes_and_reach(positions).0
 }
 
 /// How a [`SplatCache`] keeps the radii up to date.

@@ -74,13 +74,13 @@ impl NeighbourShape {
                 .last()
                 .map_or(f64::from(LONE_RADIUS), |x| x.1.max(1e-6)) as f32,
         );
-        let mut offsets = [[0.0f32; 3]; K];
+        let mut neighbours = [[0.0f32; 3]; K];
         let mut count = 0;
         let mut cov = glam::DMat3::ZERO;
         for &(j, _) in nearest.iter().filter(|x| x.1 > 0.0).take(K) {
             let d = positions[j as usize] - p;
             cov += glam::DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-            offsets[count] = positions[j as usize].as_vec3().to_array();
+            neighbours[count] = positions[j as usize].as_vec3().to_array();
             count += 1;
         }
         let Some((_, vectors)) = sim_core::linalg::sym3_eigen(cov) else {
@@ -89,7 +89,7 @@ impl NeighbourShape {
         match render::splat_shape(
             p.as_vec3().to_array(),
             vectors[0].as_vec3().to_array(),
-            &offsets[..count],
+            &neighbours[..count],
         ) {
             Some(s) if s.radius.is_finite() && s.radius > 0.0 => Self {
                 radius: s.radius.max(1e-6),
@@ -99,6 +99,31 @@ impl NeighbourShape {
             _ => disk,
         }
     }
+}
+
+/// Every point's shape and reach (its K-th neighbour's distance) from scratch, with a k-d tree
+/// on all cores; at most [`K`] points: lone disks of unbounded reach.
+pub fn shapes_and_reach(positions: &[DVec3]) -> (Vec<NeighbourShape>, Vec<f64>) {
+    if positions.len() <= K {
+        return (
+            vec![NeighbourShape::disk(LONE_RADIUS); positions.len()],
+            vec![f64::INFINITY; positions.len()],
+        );
+    }
+    let tree = PointIndex::new(positions);
+    positions
+        .par_iter()
+        .with_min_len(1024)
+        .map(|&p| {
+            let near: Vec<(u32, f64)> = tree
+                .nearest_k(p, K + 1)
+                .into_iter()
+                .map(|(j, d)| (j as u32, d))
+                .collect();
+            let reach = near.last().map_or(0.0, |x| x.1);
+            (NeighbourShape::from_nearest(p, &near, positions), reach)
+        })
+        .unzip()
 }
 
 /// Changes to apply: the new point count and the new positions of the points that changed.
@@ -343,30 +368,12 @@ impl NeighbourCache {
         self.positions = positions;
         self.marked = vec![0; n];
         self.epoch = 0;
+        (self.shapes, self.reach) = shapes_and_reach(&self.positions);
         if n <= K {
-            self.shapes = vec![NeighbourShape::disk(LONE_RADIUS); n];
-            self.reach = vec![f64::INFINITY; n];
             self.index = CellIndex::default();
             self.balls = ReachIndex::default();
             return;
         }
-        let tree = PointIndex::new(&self.positions);
-        let pos = &self.positions;
-        let (shapes, reach): (Vec<_>, Vec<_>) = pos
-            .par_iter()
-            .with_min_len(1024)
-            .map(|&p| {
-                let near: Vec<(u32, f64)> = tree
-                    .nearest_k(p, K + 1)
-                    .into_iter()
-                    .map(|(j, d)| (j as u32, d))
-                    .collect();
-                let reach = near.last().map_or(0.0, |x| x.1);
-                (NeighbourShape::from_nearest(p, &near, pos), reach)
-            })
-            .unzip();
-        self.shapes = shapes;
-        self.reach = reach;
         let mut sorted: Vec<f64> = self.reach.iter().copied().filter(|r| *r > 0.0).collect();
         let typical = if sorted.is_empty() {
             1e-3
