@@ -8,7 +8,8 @@
 //! returns the output in the device frame plus the [`InputEvent`] the simulation consumes.
 //! [`run`] is the thin driver: on UDP it waits in `poll(2)` on the session's socket itself (the
 //! cursor's arrival wakes this thread and no other), otherwise it parks on an empty cursor ring
-//! (QUIC, the mouse); it takes the newest cursor (older ones it skips are counted), loads the
+//! (QUIC, the mouse); it takes the newest cursor (older ones it skips are counted; one the
+//! network reordered behind an already mapped one is refused, [`ForceMapper::admit`]), loads the
 //! snapshots with `ArcSwap::load` (lock-free), sends through the session's [`HotSender`] unless
 //! the perceptual deadband holds the command back ([`ForceDeadband`], `run --force-deadband`,
 //! off by default; [`deadband_gate`]), pushes the event, and keeps period and work histograms.
@@ -53,7 +54,13 @@ pub struct ForceMapper {
     contact: ContactSpec,
     probe_spec: ProbeSpec,
     search: (f64, f64),
+    /// Servo tick of the newest cursor [`ForceMapper::admit`] let through this session.
+    newest_tick: Option<u32>,
 }
+
+/// A cursor this many servo ticks (10 s) behind the newest is not a reordered packet but a
+/// restarted server counting from zero again: it is admitted and becomes the newest.
+pub const RESTART_TICKS: u32 = 10_000;
 
 impl ForceMapper {
     /// From a scene's device transform and tool defaults.
@@ -71,7 +78,33 @@ impl ForceMapper {
             contact: scene.tools.contact,
             probe_spec: *p,
             search,
+            newest_tick: None,
         })
+    }
+
+    /// Whether `cursor` is newer than every cursor admitted before (by servo tick, with
+    /// wrap-around), recording it if so. A datagram the network reordered arrives after a
+    /// newer one: mapping it would feed the simulation an old position and, worse, an old
+    /// button state (a release and a new press: a spurious stroke; the delay study's jittered
+    /// runs found it). Such a cursor is refused and gets no command (the server already holds
+    /// a newer one). Equal ticks pass (the mouse stamps every cursor 0).
+    pub fn admit(&mut self, cursor: &CursorSample) -> bool {
+        let behind = self
+            .newest_tick
+            .map_or(0, |n| n.wrapping_sub(cursor.servo_tick));
+        if behind == 0 || behind > RESTART_TICKS {
+            self.newest_tick = Some(cursor.servo_tick);
+            return true;
+        }
+        // `behind` in (0, RESTART_TICKS]: older than the newest. (A cursor ahead of it wraps
+        // to a huge `behind` and is admitted above.)
+        false
+    }
+
+    /// Forget the newest cursor (a new session's servo counts from its own start).
+    pub fn new_session(&mut self) {
+        self.newest_tick = None;
+        self.field.reset();
     }
 
     /// Take the contact settings a tool carries, if they are new and valid (invalid ones keep
@@ -205,11 +238,15 @@ fn probe_params(p: &ProbeSpec) -> ContactParams {
 
 /// The rope's reaction: a spring from the tip to the anchor, `|F| ≤ max_force` with its
 /// direction kept; the anchor model lets the server render it between commands (or, once
-/// clamped, the held force).
+/// clamped, the held force). A rope is held stretched away from its anchor, so the model is
+/// valid within [`MODEL_VALIDITY_M`] of the tip's stretch, not of the anchor: a model valid
+/// only 4 mm around the anchor rendered zero as soon as a pull passed 4 mm (found by the
+/// delay study's rope pull).
 pub fn rope_output(x: DVec3, anchor: DVec3, stiffness: f64, max_force: f64) -> HapticOutput {
     let f = stiffness * (anchor - x);
     let n = f.length();
     if n <= max_force {
+        let stretch = x.distance(anchor);
         HapticOutput {
             force: f,
             model: ContactModel {
@@ -219,7 +256,7 @@ pub fn rope_output(x: DVec3, anchor: DVec3, stiffness: f64, max_force: f64) -> H
                 stiffness,
                 damping: 0.0,
                 friction: 0.0,
-                validity_radius: MODEL_VALIDITY_M,
+                validity_radius: stretch + MODEL_VALIDITY_M,
                 lifetime_s: MODEL_LIFETIME_S,
             },
         }
@@ -394,7 +431,7 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
                 Some(l) => (Some(l.sender), l.receiver),
                 None => (None, None),
             };
-            mapper.field.reset();
+            mapper.new_session();
             deadband.reset();
         }
         let mut newest = None;
@@ -435,7 +472,13 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
                 .cursors_skipped
                 .fetch_add(skipped, Ordering::Relaxed);
         }
-        let Some(msg) = newest else {
+        let Some(msg) = newest.filter(|m| {
+            let current = mapper.admit(&m.cursor);
+            if !current {
+                shared.net.cursors_late.fetch_add(1, Ordering::Relaxed);
+            }
+            current
+        }) else {
             if receiver.is_none() {
                 // Unparked by the cursors' producer on every push; the timeout only bounds
                 // stop latency.
@@ -572,6 +615,45 @@ friction = 0.0
         let near = rope_output(DVec3::new(0.01, 0.0, 0.0), DVec3::ZERO, 100.0, 3.0);
         assert!((near.force.x + 1.0).abs() < 1e-12);
         assert_eq!(near.model.kind, ModelKind::Anchor);
+    }
+
+    #[test]
+    fn a_cursor_reordered_behind_a_mapped_one_is_refused() {
+        let mut m = ForceMapper::new(&scene()).unwrap();
+        let admit = |m: &mut ForceMapper, tick: u32| {
+            let mut c = cursor([0.0, 0.03, 0.0]);
+            c.servo_tick = tick;
+            m.admit(&c)
+        };
+        let mut at = |tick: u32| admit(&mut m, tick);
+        assert!(at(100));
+        assert!(!at(99), "older: its position and buttons are the past");
+        assert!(at(100), "equal (the mouse stamps 0 on every cursor)");
+        assert!(at(101));
+        assert!(at(u32::MAX.wrapping_add(200)), "newer across the wrap");
+        assert!(!at(150));
+        // A restarted server counts from zero: far behind is a new count, not a reorder.
+        assert!(at(50_000));
+        assert!(at(3));
+        assert!(at(4));
+        m.new_session();
+        assert!(admit(&mut m, 1));
+    }
+
+    #[test]
+    fn the_server_renders_a_stretched_rope_as_the_workstation_computed_it() {
+        // Pulled 25 mm from its anchor (1.5 N at 60 N/m): the server's renderer, at the same
+        // cursor and 2 mm further out, gives the spring's force, never zero.
+        let anchor = DVec3::new(0.0, 0.05, 0.0);
+        let x = anchor + DVec3::new(0.0, 0.025, 0.0);
+        let cmd = rope_output(x, anchor, 60.0, 3.0).to_command(0, 0);
+        let mut r = protocol::ModelRenderer::new();
+        for dy in [0.0f32, 0.002] {
+            let at = x.as_vec3() + glam::Vec3::new(0.0, dy, 0.0);
+            let f = r.render(&cmd, at, glam::Vec3::ZERO, 0);
+            let want = 60.0 * (0.025 + dy);
+            assert!((f.y + want).abs() < 1e-4, "{dy}: {f}");
+        }
     }
 
     #[test]

@@ -278,6 +278,7 @@ impl Workstation {
             cursors: n.cursors.load(Ordering::Relaxed),
             cursors_dropped: n.cursors_dropped.load(Ordering::Relaxed),
             cursors_skipped: n.cursors_skipped.load(Ordering::Relaxed),
+            cursors_late: n.cursors_late.load(Ordering::Relaxed),
             forces_sent: n.forces_sent.load(Ordering::Relaxed),
             events_dropped: s.events_dropped.load(Ordering::Relaxed),
             frames: self.frames(),
@@ -350,6 +351,8 @@ pub struct LiveStats {
     pub cursors_dropped: u64,
     /// Cursors skipped by the force thread (a newer one was waiting).
     pub cursors_skipped: u64,
+    /// Cursors refused as older than one already mapped (reordered by the network).
+    pub cursors_late: u64,
     /// The age of the command each servo tick applied, in ticks after the cursor it answers
     /// (every cursor received; goal on loopback ≥ 99.9 % `next_tick`).
     pub applied_age_ticks: protocol::AppliedAgeFractions,

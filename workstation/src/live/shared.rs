@@ -348,6 +348,8 @@ pub struct NetStats {
     pub cursors_dropped: AtomicU64,
     /// Cursors the force thread skipped because a newer one was already waiting.
     pub cursors_skipped: AtomicU64,
+    /// Cursors refused because a newer one was already mapped (the network reordered them).
+    pub cursors_late: AtomicU64,
     /// Force commands sent.
     pub forces_sent: AtomicU64,
     /// Force commands the perceptual deadband held back (not felt as different).
