@@ -12,7 +12,9 @@
 //! Methods: (a) `zoh`: commands without model, the server holds the last force; (b) `ewma`:
 //! the same, smoothed `E ← 0.9 E + 0.1 F` per tick; (c) `local_model`: the plane model rendered
 //! at the current cursor; (d) `local_model_passivity`: (c) plus the server's passivity
-//! observer/controller. Outputs in `--out`: `report.json`, `runs.csv`, `summary.md` and PNG plots.
+//! observer/controller. Then the same four on a surface that moves ([`live`]): a probe pressed
+//! into the live simulated field and a rope pull, with delay, jitter and loss, and the method
+//! to ship per delay. Outputs in `--out`: `report.json`, `runs.csv`, `summary.md` and PNG plots.
 
 use std::path::{Path, PathBuf};
 
@@ -21,10 +23,13 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use protocol::LinkParams;
 
+pub mod live;
+mod live_report;
 mod plots;
 mod report;
 pub mod sim;
 
+pub use live_report::{LiveReport, LiveRow, Recommendation};
 pub use report::{DelayStudyReport, Expectations, RunRow, SweepRow, print};
 pub use sim::{Method, RunSpec, Trace, Wall, simulate};
 
@@ -44,11 +49,17 @@ last force held; (b) ewma, the force smoothed; (c) local_model, the contact plan
 the current cursor; (d) local_model_passivity, (c) with the passivity controller. Reports per \
 run the RMS force error against the same method without delay, peak force, the energy the \
 device delivered to the hand (> 0: the interface generated energy) and whether the held press \
-was steady; then a deadband sweep (packets sent vs force error). Everything runs on a virtual \
-clock: the same flags give the same numbers.
+was steady; then a deadband sweep (packets sent vs force error). Then the same methods on a \
+surface that moves: a probe pressed into the live simulated field (the surface gives way \
+under it) and a rope pull, through the workstation's own simulation, at each delay clean, \
+with --live-jitter-ms and with each loss: force error against the run without delay and \
+against the ideal, energy the link added, and the depth error of the sculpted shape; it says \
+which method it would ship for which delay (--no-live skips this part, ~1 s per run). \
+Everything runs on a virtual clock: the same flags give the same numbers.
 
-Writes OUT/report.json, OUT/runs.csv, OUT/summary.md and the PNG plots \
-error_vs_delay.png, traces_20ms.png, traces_100ms.png, energy_vs_delay.png, deadband.png.
+Writes OUT/report.json, OUT/runs.csv, OUT/live_runs.csv, OUT/summary.md and the PNG plots \
+error_vs_delay.png, traces_20ms.png, traces_100ms.png, energy_vs_delay.png, deadband.png and \
+live_error_vs_delay.png.
 
 Example: workstation delay-study --out out/delay --delays-ms 0,5,20,50,100 --loss 0,0.05,0.2")]
 pub struct DelayStudyArgs {
@@ -76,6 +87,13 @@ pub struct DelayStudyArgs {
     /// Deadband values for the sweeps (local model at 20 ms one way, and zoh at 0 ms; no loss).
     #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1,0.2")]
     pub deadband_sweep: Vec<f64>,
+    /// Skip the runs on the surface that moves (the probe press and the rope pull through the
+    /// live simulation, about 1 s of compute each).
+    #[arg(long)]
+    pub no_live: bool,
+    /// Jitter of the live runs' jittered conditions (each delay > 0 once with it), ms.
+    #[arg(long, default_value_t = 10.0)]
+    pub live_jitter_ms: f64,
     /// Print the JSON report to stdout instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -150,6 +168,10 @@ fn validate(args: &DelayStudyArgs) -> anyhow::Result<()> {
         "--deadband and --deadband-sweep must be in [0, 1]"
     );
     anyhow::ensure!(
+        args.live_jitter_ms.is_finite() && (0.0..=1000.0).contains(&args.live_jitter_ms),
+        "--live-jitter-ms must be in 0 … 1000"
+    );
+    anyhow::ensure!(
         args.ewma_alpha.is_finite() && (0.0..1.0).contains(&args.ewma_alpha),
         "--ewma-alpha must be in [0, 1)"
     );
@@ -194,7 +216,10 @@ pub fn study(
             bar.inc(1);
         }
     }
-    let report = report::assemble(args, &rows, sweep);
+    let mut report = report::assemble(args, &rows, sweep);
+    if !args.no_live {
+        report.live = Some(live_report::study(args, bar, &report.runs)?);
+    }
     Ok((report, rows))
 }
 
@@ -202,6 +227,7 @@ pub fn study(
 pub fn run_count(args: &DelayStudyArgs) -> u64 {
     (Method::ALL.len() * (1 + args.loss.len() * args.delays_ms.len())
         + 2 * args.deadband_sweep.len()) as u64
+        + live_report::run_count(args)
 }
 
 /// Write the report files and plots into `dir`.
@@ -216,6 +242,10 @@ pub fn write(
     std::fs::write(dir.join("runs.csv"), report::csv(report))?;
     std::fs::write(dir.join("summary.md"), report::summary_md(report))?;
     plots::all(dir, report, rows)?;
+    if let Some(live) = &report.live {
+        std::fs::write(dir.join("live_runs.csv"), live_report::csv(live))?;
+        live_report::plot(&dir.join("live_error_vs_delay.png"), live)?;
+    }
     Ok(())
 }
 

@@ -9,7 +9,7 @@ use super::sim::{Method, Trace};
 
 const SIZE: (u32, u32) = (900, 560);
 
-fn colour(m: Method) -> RGBColor {
+pub(super) fn colour(m: Method) -> RGBColor {
     match m {
         Method::Zoh => RGBColor(214, 39, 40),
         Method::Ewma => RGBColor(255, 127, 14),

@@ -119,6 +119,8 @@ pub struct DelayStudyReport {
     pub runs: Vec<RunRow>,
     /// The deadband sweep.
     pub deadband_sweep: Vec<SweepRow>,
+    /// The runs on a surface that moves (absent with `--no-live`).
+    pub live: Option<super::LiveReport>,
 }
 
 /// Figures of trace `t` against its method's reference and the ideal.
@@ -253,6 +255,7 @@ pub fn assemble(
         expectations,
         runs,
         deadband_sweep: sweep,
+        live: None,
     }
 }
 
@@ -393,12 +396,21 @@ pub fn expectations_md(r: &DelayStudyReport) -> String {
 pub fn summary_md(r: &DelayStudyReport) -> String {
     format!(
         "# Delay study\n\n{}\n\n{}\n\n## Outcomes\n\n{}\n## Runs\n\n{}\n## Deadband sweeps (no loss)\n\n{}\n\
-         Plots: error_vs_delay.png, traces_20ms.png, traces_100ms.png, energy_vs_delay.png, deadband.png.\n",
+         Plots: error_vs_delay.png, traces_20ms.png, traces_100ms.png, energy_vs_delay.png, deadband.png{}.\n\n{}",
         r.conditions,
         r.clamp,
         expectations_md(r),
         table_md(r),
-        sweep_md(r)
+        sweep_md(r),
+        if r.live.is_some() {
+            ", live_error_vs_delay.png"
+        } else {
+            ""
+        },
+        r.live
+            .as_ref()
+            .map(super::live_report::md)
+            .unwrap_or_default()
     )
 }
 
@@ -427,5 +439,17 @@ pub fn print(r: &DelayStudyReport, json: bool) -> anyhow::Result<()> {
         );
     }
     println!("\n{}", sweep_md(r));
+    if let Some(live) = &r.live {
+        println!("On a surface that moves (probe press, rope pull), the method to ship:");
+        for x in &live.recommendation {
+            println!(
+                "  {:>6} ms one way: {:<22} (summed error vs ideal {:.3} N)",
+                x.delay_ms,
+                x.method.name(),
+                x.summed_error_vs_ideal_n
+            );
+        }
+        println!("(every live run in summary.md and report.json)");
+    }
     Ok(())
 }

@@ -1,11 +1,12 @@
 //! One run of the delay study on a virtual clock: the fake hand, the server's [`ServoCore`],
 //! a [`SimLink`] each way, and the workstation's real [`ForceMapper`] on a wall field.
 //!
-//! Per 1 ms tick, in this order: commands due are handed to the core; the device is read
-//! (the hand moves under the force written last tick); the core ticks and its force is
-//! written; the cursor goes on the uplink unless the cursor deadband holds it back; cursors
-//! due at the workstation are mapped to commands, which go on the downlink unless the force
-//! deadband holds them back. No clock, no thread, no sleep: the same inputs give the same
+//! Per 1 ms tick, in this order: commands due are handed to the core (one that arrives after a
+//! newer one is superseded, as the server's transport does); the device is read (the hand moves
+//! under the force written last tick); the core ticks and its force is written; the cursor goes
+//! on the uplink unless the cursor deadband holds it back; cursors due at the workstation are
+//! mapped to commands (one older than a cursor already mapped is refused, as the force thread
+//! does), which go on the downlink unless the force deadband holds them back. No clock, no thread, no sleep: the same inputs give the same
 //! numbers, bit for bit.
 
 use anyhow::Context as _;
@@ -13,7 +14,9 @@ use glam::{DVec3, Vec3};
 use haptics_server::device::Device;
 use haptics_server::device::fake::{FakeDevice, FakeParams, HandPath};
 use haptics_server::servo::{SafetyParams, ServoCore, ServoParams, SessionEvent};
-use protocol::{CursorDeadband, ForceCommand, ForceDeadband, LinkParams, LocalModel, SimLink};
+use protocol::{
+    CursorDeadband, ForceCommand, ForceDeadband, LinkParams, LocalModel, SequenceTracker, SimLink,
+};
 use sim_core::grid::{GridSpec, ScalarGrid};
 
 use crate::live::force::ForceMapper;
@@ -71,7 +74,8 @@ impl Method {
         }
     }
 
-    fn sends_model(self) -> bool {
+    /// Whether the commands carry the local model.
+    pub fn sends_model(self) -> bool {
         matches!(self, Method::LocalModel | Method::LocalModelPassivity)
     }
 }
@@ -111,7 +115,8 @@ pub struct Trace {
     pub cursors_sent: u64,
     /// Force packets the workstation sent.
     pub commands_sent: u64,
-    /// Commands the server applied (after loss, with duplicates).
+    /// Commands the server applied (after loss; duplicates and commands superseded by a newer
+    /// one are not).
     pub commands_applied: u64,
     /// Longest stretch without an applied command after the first, ms.
     pub longest_command_gap_ms: u64,
@@ -192,7 +197,8 @@ band = 0.004
     }
 }
 
-fn servo_params(method: Method, ewma_alpha: f32) -> ServoParams {
+/// The server's settings for `method` (the device limits above, passivity for (d)).
+pub fn servo_params(method: Method, ewma_alpha: f32) -> ServoParams {
     ServoParams {
         rate_hz: 1000,
         safety: SafetyParams::default(),
@@ -207,6 +213,16 @@ fn servo_params(method: Method, ewma_alpha: f32) -> ServoParams {
         estop_button_mask: 0,
         passivity: method == Method::LocalModelPassivity,
     }
+}
+
+/// Whether the server applies command packet `seq`: its transport supersedes a command that
+/// arrives after a newer one (`haptics_server::transport`, `accept_hot`), as the workstation's
+/// [`ForceMapper::admit`] refuses a cursor older than one it mapped.
+pub fn server_applies(arrivals: &mut SequenceTracker, seq: u32) -> bool {
+    matches!(
+        arrivals.record(seq),
+        protocol::Arrival::InOrder | protocol::Arrival::Gap { .. }
+    )
 }
 
 /// Run one configuration.
@@ -224,7 +240,7 @@ pub fn simulate(wall: &Wall, spec: &RunSpec) -> anyhow::Result<Trace> {
         seed: protocol::sim_link::splitmix64(seed),
         ..spec.link
     });
-    let mut down = SimLink::new(LinkParams {
+    let mut down: SimLink<(u32, ForceCommand)> = SimLink::new(LinkParams {
         seed: protocol::sim_link::splitmix64(seed ^ 0xD0),
         ..spec.link
     });
@@ -249,9 +265,13 @@ pub fn simulate(wall: &Wall, spec: &RunSpec) -> anyhow::Result<Trace> {
     };
     let mut last: Option<(Vec3, Vec3)> = None;
     let mut last_applied: Option<u64> = None;
+    let mut arrivals = SequenceTracker::new();
     for tick in 1..=ticks {
         let now = tick * PERIOD_NS;
-        for cmd in down.deliver(now) {
+        for (seq, cmd) in down.deliver(now) {
+            if !server_applies(&mut arrivals, seq) {
+                continue;
+            }
             core.on_command(now, cmd);
             t.commands_applied += 1;
             if let Some(prev) = last_applied {
@@ -275,6 +295,9 @@ pub fn simulate(wall: &Wall, spec: &RunSpec) -> anyhow::Result<Trace> {
             t.cursors_sent += 1;
         }
         for c in up.deliver(now) {
+            if !mapper.admit(&c) {
+                continue;
+            }
             let (output, _) = mapper.tick(&c, Some(&wall.grid), None, &wall.tool);
             let mut cmd: ForceCommand = output.to_command(c.servo_tick, 0);
             if !spec.method.sends_model() {
@@ -284,8 +307,8 @@ pub fn simulate(wall: &Wall, spec: &RunSpec) -> anyhow::Result<Trace> {
                 };
             }
             if force_db.should_send(now, &cmd) {
-                down.send(now, cmd);
                 t.commands_sent += 1;
+                down.send(now, (t.commands_sent as u32, cmd));
             }
         }
     }
