@@ -193,7 +193,7 @@ name = "push"
 stroke = { tool = "probe_push", path = [[0.030, 0.040, 0.0], [0.028, 0.037, 0.0], [0.028, 0.037, -0.01]], seconds = 1.0 }
 [[phase]]
 name = "pull from inside"
-stroke = { tool = "probe_pull", path = [[-0.02, 0.040, -0.02], [-0.026, 0.052, -0.026]], seconds = 1.0 }
+stroke = { tool = "probe_pull", path = [[-0.02, 0.040, -0.02], [-0.0229, 0.0457, -0.0229]], seconds = 1.0 }
 "#,
     );
     let (_server, _monitor, cfg) = server(hand_path(&scene, 1.0));
@@ -213,9 +213,19 @@ stroke = { tool = "probe_pull", path = [[-0.02, 0.040, -0.02], [-0.026, 0.052, -
     // Under the push path the surface went in, and stayed in after the release.
     let dent = near(DVec3::new(0.028, 0.037, -0.005), 0.006).fold(0.0, f64::min);
     assert!(dent < -1e-3, "deepest point under the push: {dent:e} m");
-    // Where the probe left the material from inside, the material came out with it.
+    // Where the probe left the material from inside (released 6 mm out, within the region's
+    // 8 mm band: beyond it the material cannot follow), the material came out with it, and
+    // the points, resampled at the commit, lie on the committed surface.
     let bulge = near(DVec3::new(-0.023, 0.046, -0.023), 0.008).fold(0.0, f64::max);
     assert!(bulge > 1e-3, "highest point above the pull: {bulge:e} m");
+    let c = DVec3::new(-0.023, 0.046, -0.023).normalize() * RADIUS;
+    let off = ball
+        .positions
+        .iter()
+        .filter(|p| p.distance(c) < 0.01)
+        .map(|&p| ball.field.value(p).abs())
+        .fold(0.0, f64::max);
+    assert!(off < 2.5e-4, "a point {off:e} m off the committed surface");
     // Elsewhere on the region's surface nothing moved.
     let calm = near(DVec3::new(0.0, 0.03, 0.04), 0.01).fold(0.0, |a: f64, d| a.max(d.abs()));
     assert!(calm < 5e-4, "untouched surface moved {calm:e} m");

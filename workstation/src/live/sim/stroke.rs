@@ -221,19 +221,7 @@ impl SimCore {
                 .iter()
                 .fold(0.0, |a: f64, u| a.max(u.abs()))
         });
-        // Known defect: resampling after a probe pull (material drawn out from inside) puts
-        // the pulled points back near the old surface (the live test
-        // `the_shaped_probe_carves_a_dent_and_pulls_material_out_from_inside` catches it), so
-        // that commit keeps its points as they followed the field, unresampled.
-        let skip_resample = s.tool == ToolKind::ProbePull;
-        if skip_resample && let Some(r) = self.scene.region_mut() {
-            r.set_resample(None);
-        }
-        let refitted = self.scene.end_stroke();
-        if skip_resample && let Some(r) = self.scene.region_mut() {
-            r.set_resample(self.params.resample);
-        }
-        let refitted = refitted?;
+        let refitted = self.scene.end_stroke()?;
         let resampled = self
             .scene
             .region()

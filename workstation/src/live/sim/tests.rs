@@ -147,3 +147,72 @@ fn a_failed_operation_leaves_the_scene_usable() {
     c.step(1e-3).unwrap();
     assert!(c.publish_field().is_some(), "the region is open again");
 }
+
+/// A probe pull from 1 mm inside the top-left of the ball outward along its normal to
+/// `out_mm` beyond the surface (1 s), released there: the committed core and the largest height
+/// of the points near the pull (mm), and the worst |committed field| at those points (mm).
+fn probe_pull(out_mm: f64) -> (SimCore, f64, f64) {
+    let scene = SceneFile::parse(
+        r#"
+[[object]]
+name = "ball"
+generate = { shape = "sphere", size = 0.05, points = 3000, seed = 2 }
+[region]
+object = "ball"
+min = [-0.05, 0.0, -0.05]
+max = [0.05, 0.06, 0.05]
+spacing = 0.0025
+band = 0.008
+[tools]
+selected = "probe_pull"
+probe = { semi_axes = [0.009, 0.009, 0.009], surface_stiffness = 2e6, sculpt_stiffness = 1000.0 }
+"#,
+    )
+    .unwrap();
+    let mut c = SimCore::new(&scene, ".".into()).unwrap();
+    let dir = DVec3::new(-1.0, 2.0, -1.0).normalize();
+    let (a, b) = (dir * 0.049, dir * (0.05 + out_mm * 1e-3));
+    c.input(&at(a, 1)).unwrap();
+    for k in 0..=1000 {
+        c.input(&at(a.lerp(b, k as f64 / 1000.0), 1)).unwrap();
+        c.step(1e-3).unwrap();
+        if k % 2 == 0 {
+            c.follow().unwrap();
+        }
+    }
+    c.input(&at(b, 0)).unwrap();
+    assert_eq!(c.strokes().len(), 1);
+    let o = &c.scene().objects()[0];
+    let near: Vec<DVec3> = o
+        .positions
+        .iter()
+        .copied()
+        .filter(|p| p.distance(dir * 0.05) < 0.01)
+        .collect();
+    let height = near
+        .iter()
+        .map(|p| p.length() - 0.05)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let off = near
+        .iter()
+        .map(|&p| o.field.value(p).abs())
+        .fold(0.0, f64::max);
+    (c, height * 1e3, off * 1e3)
+}
+
+#[test]
+fn a_probe_pull_commits_a_bump_whose_points_lie_on_the_field() {
+    // Released with the probe 6 mm out, holding the material: a bump (measured 6.2 mm of
+    // points; the region holds material only within its 8 mm band of the rest surface),
+    // resampled like every other stroke (136 points inserted on its flanks).
+    let (c, height, off) = probe_pull(6.0);
+    let r = &c.strokes()[0].resampled;
+    assert!(height > 4.0, "{height} mm");
+    assert!(r.inserted > 20, "{r:?}");
+    assert!(off < 0.25, "a point {off} mm off the committed surface");
+    // Pulled 13.7 mm out, beyond the band: the probe left the material behind and it relaxed
+    // before the release, so the committed field has no bump. The points must say so too
+    // (before the commit resampled probe pulls, followers stood 6.9 mm out, on no surface).
+    let (_, _, off) = probe_pull(13.7);
+    assert!(off < 0.25, "a point {off} mm off the committed surface");
+}
