@@ -33,6 +33,10 @@ pub const EPS_PX: f32 = 2.0;
 /// takes its screen distance when it is smaller than the object-space one, so every splat keeps
 /// at least this footprint (never vanishes between pixel centres).
 pub const PREFILTER_PX: f32 = 2.0;
+/// The silhouette cut keeps distances this factor beyond the osculating paraboloid's outline
+/// ([`silhouette_cut`]): curvatures estimated from a few neighbours are noisy, and an
+/// over-estimate would cut into the surface (a notch in its outline).
+pub const CUT_SLACK: f32 = 1.0;
 /// Pixels whose summed weight is below this show the background (a covered pixel has ≥ e^-2).
 pub const MIN_WEIGHT: f32 = 1e-5;
 
@@ -117,6 +121,9 @@ pub(crate) struct SplatSetup {
     pub eps: f32,
     /// Whether the object-space term exists (false when the splat is seen edge-on).
     pub obj: bool,
+    /// Silhouette cut: the object-space hit `(û, v̂)` counts only where
+    /// `1 + cut.xy·(û, v̂) − (cut.zw·(û, v̂))² ≥ 0` (zero: no cut; see [`silhouette_cut`]).
+    pub cut: Vec4,
     /// Pixel-space box `(x0, y0, x1, y1)` holding every pixel centre of positive weight.
     pub bbox: Vec4,
     /// Linear albedo.
@@ -163,6 +170,11 @@ pub(crate) fn setup(s: &Splat, f: &FrameParams) -> Option<SplatSetup> {
     if !(a > 0.0 && b > 0.0) {
         return None;
     }
+    let cut = if ax2 > 1e-12 {
+        silhouette_cut(s.curvature, n, du * a, dv * b, to_eye)
+    } else {
+        Vec4::ZERO
+    };
     let (u, v) = (du * a, dv * b);
     let pc = p.extend(1.0);
     let wc = f.row_w.dot(pc);
@@ -219,10 +231,69 @@ pub(crate) fn setup(s: &Splat, f: &FrameParams) -> Option<SplatSetup> {
         wc,
         eps: EPS_FRACTION * a + EPS_PX * f.px_per_depth * wc,
         obj,
+        cut,
         bbox,
         albedo,
         normal: if facing < 0.0 { -n } else { n },
     })
+}
+
+/// The cut of a splat with semi-axis vectors `u`, `v`, unit normal `n` and normal curvatures
+/// `k` (in the frame of `u`, `v`; [`Splat::curvature`]) seen from `to_eye`: `(l, m)` such that
+/// the plane point `û·u + v̂·v` is kept where `1 + l·(û, v̂) − (m·(û, v̂))² ≥ 0` (zeros: no cut).
+///
+/// A flat splat stands for a surface that bends away from its plane, and seen obliquely it
+/// reaches past that surface's outline (by up to r²/2R). Take the eye direction
+/// `e = c·n + S·t` (`t` the tangent direction towards the eye, `c = |n·e|`, `S = √(1 − c²)`)
+/// and the surface as the osculating paraboloid `h = ½ xᵀKx` below the plane. The ray from the
+/// eye through the plane point at `a` along `t` and `b` along `s = n × t` meets the
+/// paraboloid iff its discriminant `D = c² + 2Sc(κ_t a + κ_ts b) + S²(κ_ts² − κ_t κ_s) b²` is
+/// non-negative (exact for a paraboloid, to second order for the surface; `c = n·e` signed, so
+/// a splat just behind the outline, seen from its back, is cut on its side towards the eye);
+/// points with `D < 0` lie beyond the outline and are cut. Facing the eye (`S → 0`) nothing is
+/// cut; where the surface is concave along `t` nothing either (concave parts have no outline
+/// seen from outside, and there the paraboloid would wrap the eye); the quadratic term is
+/// kept only where it cuts (convex both ways). Distances are stretched by [`CUT_SLACK`]
+/// against noisy curvatures.
+pub(crate) fn silhouette_cut(k: [f32; 3], n: Vec3, u: Vec3, v: Vec3, to_eye: Vec3) -> Vec4 {
+    let e = to_eye.normalize_or_zero();
+    let ne = n.dot(e);
+    let t = e - n * ne;
+    let tl = t.length();
+    let (ul, vl) = (u.length(), v.length());
+    if !(tl > 1e-6 && ul > 0.0 && vl > 0.0) {
+        return Vec4::ZERO;
+    }
+    let t = t / tl;
+    let sd = n.cross(t);
+    // The curvature in the (t, s) frame.
+    let (du, dv) = (u / ul, v / vl);
+    let form = |p: Vec3, q: Vec3| {
+        let (px, py, qx, qy) = (p.dot(du), p.dot(dv), q.dot(du), q.dot(dv));
+        k[0] * px * qx + k[1] * (px * qy + py * qx) + k[2] * py * qy
+    };
+    let (kt, kts, ks) = (form(t, t), form(t, sd), form(sd, sd));
+    // Not convex along t, or not a number: no cut.
+    if kt.is_nan() || kt <= 0.0 {
+        return Vec4::ZERO;
+    }
+    // Signed: a splat just behind the outline (seen from its back) reaches past it too, on
+    // the side towards the eye, which the sign of c turns the cut to.
+    let c = if ne < 0.0 { -1.0 } else { 1.0 } * ne.abs().max(1e-4);
+    let sn = (1.0 - c * c).max(0.0).sqrt();
+    // a = (û, v̂)·(u·t, v·t), b = (û, v̂)·(u·s, v·s).
+    let (at, bs) = (
+        Vec2::new(u.dot(t), v.dot(t)),
+        Vec2::new(u.dot(sd), v.dot(sd)),
+    );
+    let l = 2.0 * sn * (kt * at + kts * bs) / (c * CUT_SLACK);
+    let q = sn * sn * (kts * kts - kt * ks) / (c * c);
+    let m = if q < 0.0 {
+        bs * ((-q).sqrt() / CUT_SLACK)
+    } else {
+        Vec2::ZERO
+    };
+    Vec4::new(l.x, l.y, m.x, m.y)
 }
 
 /// A splat's contribution at a pixel centre: Gaussian weight, then NDC depth of the attribute
@@ -249,7 +320,10 @@ pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<
     if s.obj && den > 1e-6 {
         let scale = s.wc / den;
         let d2_obj = (gx * gx + gy * gy) * (scale * scale);
-        if d2_obj <= d2_scr {
+        let (cu, cv) = (gx * scale, gy * scale);
+        let across = s.cut.z * cu + s.cut.w * cv;
+        let kept = 1.0 + s.cut.x * cu + s.cut.y * cv - across * across >= 0.0;
+        if kept && d2_obj <= d2_scr {
             d2 = d2_obj;
             w = scale;
         }
@@ -319,6 +393,60 @@ mod tests {
             tip.x <= st.bbox.z && st.bbox.z < tip.x + 1.0,
             "{:?}",
             st.bbox
+        );
+    }
+
+    #[test]
+    fn the_shader_cuts_with_the_same_slack() {
+        let wgsl = include_str!("shaders.wgsl");
+        assert!(
+            wgsl.contains(&format!("const CUT_SLACK: f32 = {CUT_SLACK:?};")),
+            "shaders.wgsl's CUT_SLACK differs from ewa::CUT_SLACK"
+        );
+    }
+
+    #[test]
+    fn a_curved_splat_is_cut_only_beyond_the_outline_near_a_silhouette() {
+        let (_, f) = frame();
+        // The camera looks along −z from +z. A splat at the centre of the view standing for a
+        // sphere of radius 1 (curvature 1, radius 0.3), its normal tilted 80° from the eye.
+        let tilt = 80f32.to_radians();
+        let n = Vec3::new(tilt.sin(), 0.0, tilt.cos());
+        let mut s = Splat::ellipse([0.0; 3], n.to_array(), [0.0, 1.0, 0.0], 0.3, 0.3, [255; 4]);
+        s.curvature = [1.0, 0.0, 1.0];
+        let st = setup(&s, &f).unwrap();
+        let (u, v) = (Vec3::Y * 0.3, n.cross(Vec3::Y) * 0.3);
+        let cut = silhouette_cut(s.curvature, n, u, v, f.eye);
+        assert!(
+            (cut - st.cut).length() < 1e-5 * cut.length(),
+            "{cut} vs {}",
+            st.cut
+        );
+        // The tangent towards the eye, t, and the unit-ellipse coordinates of t·d.
+        let e = f.eye.normalize();
+        let t = (e - n * n.dot(e)).normalize();
+        let at = |d: Vec3| Vec2::new(d.dot(u) / 0.09, d.dot(v) / 0.09);
+        let kept =
+            |g: Vec2| 1.0 + cut.x * g.x + cut.y * g.y - (cut.z * g.x + cut.w * g.y).powi(2) >= 0.0;
+        // Along −t the sphere's outline is R·tan(φ/2) away, φ = 90° − 80° seen from the eye
+        // (orthographic to within the eye's distance): kept just inside it, cut beyond.
+        let c = n.dot(e);
+        let limit = c / (1.0 + (1.0 - c * c).sqrt());
+        assert!(
+            kept(at(-t * 0.98 * limit)) && !kept(at(-t * 1.02 * limit)),
+            "{limit}"
+        );
+        // Towards the eye nothing is cut; sideways the outline bends in: cut past c/√(1 − c²)·R.
+        assert!(kept(at(t * 0.3)));
+        let side = n.cross(t);
+        assert!(kept(at(side * 0.9 * c)) && !kept(at(side * 0.3)));
+        // Facing the eye, flat, or concave: no cut.
+        let facing = silhouette_cut([1.0, 0.0, 1.0], Vec3::Z, Vec3::X, Vec3::Y, Vec3::Z * 5.0);
+        assert_eq!(facing, Vec4::ZERO);
+        assert_eq!(silhouette_cut([0.0; 3], n, u, v, f.eye), Vec4::ZERO);
+        assert_eq!(
+            silhouette_cut([-1.0, 0.0, -1.0], n, u, v, f.eye),
+            Vec4::ZERO
         );
     }
 

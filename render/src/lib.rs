@@ -39,7 +39,7 @@
 //!   size changes; overlay buffers have a fixed size. The software renderer's per-pixel,
 //!   per-splat and binning buffers grow likewise and are reused. Once sized, a frame allocates
 //!   nothing of ours (wgpu allocates a little per command encoder, rayon per job). The most
-//!   splats per GPU frame is the storage binding size / 48 bytes
+//!   splats per GPU frame is the storage binding size / 64 bytes
 //!   ([`RenderError::TooManySplats`]). `render` allocates the [`Image`] it returns
 //!   (`render_into` reuses one).
 //! - [`Renderer::draw`] records into a caller's encoder and colour/depth views, so a window can
@@ -113,7 +113,7 @@ pub enum RenderError {
     TooManySplats {
         /// Splats passed.
         count: usize,
-        /// Most splats one frame can draw (storage binding size / 48 bytes).
+        /// Most splats one frame can draw (storage binding size / 64 bytes).
         max: usize,
     },
     /// The camera cannot produce a projection.

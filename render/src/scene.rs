@@ -5,13 +5,16 @@ use bytemuck::{Pod, Zeroable};
 /// One surface splat: an ellipse centred at `position` in the plane whose unit normal is `normal`,
 /// blended with its neighbours by a Gaussian of its elliptical distance (see the crate doc).
 ///
-/// 48 bytes, `#[repr(C)]` and `Pod`: a slice of splats is uploaded to the GPU as it is. The
+/// 64 bytes, `#[repr(C)]` and `Pod`: a slice of splats is uploaded to the GPU as it is. The
 /// ellipse's major semi-axis is `radius` metres along `axis` (a tangent direction; it is made
 /// orthogonal to the normal before use) and its minor semi-axis `minor_radius` along
 /// `normal × axis`. A zero `axis` makes an isotropic disk of `radius` (`minor_radius` is then
 /// ignored). Radii come from the local spacing, computed by the caller (see [`splat_shape`]);
 /// a radius of 0 draws nothing. A normal of (near) zero length draws the splat facing the
-/// camera. `color` is sRGB, alpha ignored (splats are opaque).
+/// camera. `color` is sRGB, alpha ignored (splats are opaque). `curvature` is the surface's
+/// second fundamental form in the ellipse's frame (see the field), used only near silhouettes:
+/// a flat splat seen at a grazing angle reaches past the curved surface it stands for (by up
+/// to r²/2R), and the part beyond the surface's outline is cut off (zero: no cut).
 ///
 /// [`splat_shape`]: crate::splat_shape
 #[repr(C)]
@@ -29,6 +32,13 @@ pub struct Splat {
     pub axis: [f32; 3],
     /// Minor semi-axis in metres (≥ 0), along `normal × axis`; ignored when `axis` is zero.
     pub minor_radius: f32,
+    /// Normal curvatures `(k_aa, k_ab, k_bb)`, 1/m, in the frame `(axis, normal × axis)`:
+    /// the surface at tangent offset `x·axis + y·(normal × axis)` lies
+    /// `½(k_aa x² + 2 k_ab x y + k_bb y²)` below the splat's plane (positive: it bends away
+    /// from the normal, as a convex surface with outward normals). Ignored when `axis` is zero.
+    pub curvature: [f32; 3],
+    /// Unused (keeps the struct 64 bytes, four 16-byte rows for the GPU).
+    pub pad: f32,
 }
 
 impl Splat {
@@ -41,6 +51,8 @@ impl Splat {
             color,
             axis: [0.0; 3],
             minor_radius: radius,
+            curvature: [0.0; 3],
+            pad: 0.0,
         }
     }
 
@@ -61,6 +73,8 @@ impl Splat {
             color,
             axis,
             minor_radius,
+            curvature: [0.0; 3],
+            pad: 0.0,
         }
     }
 
@@ -71,14 +85,17 @@ impl Splat {
         shape: crate::SplatShape,
         color: [u8; 4],
     ) -> Self {
-        Self::ellipse(
-            position,
-            normal,
-            shape.axis,
-            shape.radius,
-            shape.minor_radius,
-            color,
-        )
+        Self {
+            curvature: shape.curvature,
+            ..Self::ellipse(
+                position,
+                normal,
+                shape.axis,
+                shape.radius,
+                shape.minor_radius,
+                color,
+            )
+        }
     }
 
     /// Whether every field is finite and no radius is negative.
@@ -87,6 +104,7 @@ impl Splat {
             .iter()
             .chain(&self.normal)
             .chain(&self.axis)
+            .chain(&self.curvature)
             .all(|v| v.is_finite())
             && self.radius.is_finite()
             && self.radius >= 0.0
@@ -245,8 +263,9 @@ mod tests {
     use super::*;
 
     #[test]
-    fn splat_is_48_bytes() {
-        assert_eq!(std::mem::size_of::<Splat>(), 48);
+    fn splat_is_64_bytes() {
+        // Four 16-byte rows: `shaders.wgsl` reads `splats[4u * i + 0..3]`.
+        assert_eq!(std::mem::size_of::<Splat>(), 64);
     }
 
     #[test]

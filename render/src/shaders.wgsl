@@ -25,8 +25,9 @@ struct Frame {
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-// The splats as uploaded (`Splat`, 48 bytes):
-// [p.x, p.y, p.z, n.x], [n.y, n.z, radius, rgba8], [axis.x, axis.y, axis.z, minor_radius].
+// The splats as uploaded (`Splat`, 64 bytes):
+// [p.x, p.y, p.z, n.x], [n.y, n.z, radius, rgba8], [axis.x, axis.y, axis.z, minor_radius],
+// [k_aa, k_ab, k_bb, pad] (curvature).
 @group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
 // The attribute pass's sums, read by the normalisation pass.
 @group(1) @binding(0) var accum_color: texture_2d<f32>;
@@ -61,17 +62,64 @@ struct Ewa {
     ainv: vec4<f32>,      // A⁻¹ row-major
     k: vec4<f32>,         // (uz, vz), 1 if the object-space term exists, 1 if drawn
     bbox: vec4<f32>,      // x0, y0, x1, y1 (pixels)
+    cut: vec4<f32>,       // the silhouette cut: kept where 1 + xy·g − (zw·g)² ≥ 0 (zero: none)
     albedo: vec3<f32>,
     normal: vec3<f32>,
 };
+
+// `ewa::CUT_SLACK` (a test checks the two agree).
+const CUT_SLACK: f32 = 1.0;
+
+// `ewa::silhouette_cut`.
+fn silhouette_cut(k: vec3<f32>, n: vec3<f32>, u: vec3<f32>, v: vec3<f32>, to_eye: vec3<f32>) -> vec4<f32> {
+    let el = length(to_eye);
+    if !(el > 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let e = to_eye / el;
+    let ne = dot(n, e);
+    let t0 = e - n * ne;
+    let tl = length(t0);
+    let ul = length(u);
+    let vl = length(v);
+    if !(tl > 1e-6 && ul > 0.0 && vl > 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let t = t0 / tl;
+    let sd = cross(n, t);
+    let du = u / ul;
+    let dv = v / vl;
+    let tx = dot(t, du);
+    let ty = dot(t, dv);
+    let sx = dot(sd, du);
+    let sy = dot(sd, dv);
+    let kt = (k.x * tx * tx + 2.0 * k.y * tx * ty + k.z * ty * ty);
+    let kts = (k.x * tx * sx + k.y * (tx * sy + ty * sx) + k.z * ty * sy);
+    let ks = (k.x * sx * sx + 2.0 * k.y * sx * sy + k.z * sy * sy);
+    if !(kt > 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let c = select(1.0, -1.0, ne < 0.0) * max(abs(ne), 1e-4);
+    let sn = sqrt(max(1.0 - c * c, 0.0));
+    let at = vec2<f32>(dot(u, t), dot(v, t));
+    let bs = vec2<f32>(dot(u, sd), dot(v, sd));
+    let l = 2.0 * sn * (kt * at + kts * bs) / (c * CUT_SLACK);
+    let q = sn * sn * (kts * kts - kt * ks) / (c * c);
+    var m = vec2<f32>(0.0);
+    if q < 0.0 {
+        m = bs * (sqrt(-q) / CUT_SLACK);
+    }
+    return vec4<f32>(l, m);
+}
 
 // `ewa::setup`: the splat's projected ellipse; k.w = 0 when it draws nothing.
 fn ewa_setup(i: u32) -> Ewa {
     var e: Ewa;
     e.k = vec4<f32>(0.0);
-    let a4 = splats[3u * i];
-    let b4 = splats[3u * i + 1u];
-    let c4 = splats[3u * i + 2u];
+    let a4 = splats[4u * i];
+    let b4 = splats[4u * i + 1u];
+    let c4 = splats[4u * i + 2u];
+    let d4 = splats[4u * i + 3u];
     let p = a4.xyz;
     let raw_n = vec3<f32>(a4.w, b4.xy);
     let to_eye = frame.eye.xyz - p;
@@ -113,6 +161,10 @@ fn ewa_setup(i: u32) -> Ewa {
     }
     let u = du * ra;
     let v = dv * rb;
+    e.cut = vec4<f32>(0.0);
+    if ax2 > 1e-12 {
+        e.cut = silhouette_cut(d4.xyz, n, u, v, to_eye);
+    }
     let pc = vec4<f32>(p, 1.0);
     let wc = dot(frame.row_w, pc);
     let cx = dot(frame.row_x, pc) / wc;
@@ -156,7 +208,7 @@ fn ewa_setup(i: u32) -> Ewa {
 }
 
 // `ewa::eval` at pixel centre `pos`: (weight, depth, pushed depth, 1) or w = 0 outside.
-fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>, pos: vec2<f32>) -> vec4<f32> {
+fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>, cut: vec4<f32>, pos: vec2<f32>) -> vec4<f32> {
     if pos.x < bbox.x || pos.x > bbox.z || pos.y < bbox.y || pos.y > bbox.w {
         return vec4<f32>(0.0);
     }
@@ -172,7 +224,11 @@ fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>
     if k.z > 0.5 && den > 1e-6 {
         let scale = center_wc.z / den;
         let d2_obj = (gx * gx + gy * gy) * (scale * scale);
-        if d2_obj <= d2_scr {
+        let cu = gx * scale;
+        let cv = gy * scale;
+        let across = cut.z * cu + cut.w * cv;
+        let kept = 1.0 + cut.x * cu + cut.y * cv - across * across >= 0.0;
+        if kept && d2_obj <= d2_scr {
             d2 = d2_obj;
             w = scale;
         }
@@ -197,6 +253,7 @@ struct EwaOut {
     @location(3) @interpolate(flat) bbox: vec4<f32>,
     @location(4) @interpolate(flat) albedo: vec3<f32>,
     @location(5) @interpolate(flat) normal: vec3<f32>,
+    @location(6) @interpolate(flat) cut: vec4<f32>,
 };
 
 // Splat vi / 6, corner vi % 6 of the two triangles covering its pixel box exactly: half the
@@ -211,6 +268,7 @@ fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
     out.bbox = e.bbox;
     out.albedo = e.albedo;
     out.normal = e.normal;
+    out.cut = e.cut;
     if e.k.w < 0.5 {
         out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0); // draws nothing: one point outside the view
         return out;
@@ -228,7 +286,7 @@ fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
 // Pass 1, visibility: the nearest depth pushed back by ε.
 @fragment
 fn fs_ewa_visibility(v: EwaOut) -> @builtin(frag_depth) f32 {
-    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.clip.xy);
+    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.cut, v.clip.xy);
     if s.w < 0.5 {
         discard;
     }
@@ -244,7 +302,7 @@ struct AttributeOut {
 // Pass 2, attributes: every fragment within ε of the front adds w·albedo, w, w·normal.
 @fragment
 fn fs_ewa_attribute(v: EwaOut) -> AttributeOut {
-    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.clip.xy);
+    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.cut, v.clip.xy);
     if s.w < 0.5 {
         discard;
     }

@@ -12,15 +12,18 @@ pub const COVER_NEIGHBOURS: usize = 6;
 /// Factor on the ellipse through the farthest ring neighbour (see [`splat_shape`]).
 pub const SPLAT_OVERLAP: f32 = 1.0;
 
-/// Major axis and semi-axes of one splat, as [`splat_shape`] computes them.
+/// Major axis, semi-axes and curvature of one splat, as [`splat_shape`] computes them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SplatShape {
-    /// Unit tangent of the major axis (zero when the neighbours are isotropic).
+    /// Unit tangent of the major axis (any tangent when the neighbours are isotropic).
     pub axis: [f32; 3],
     /// Major semi-axis in metres.
     pub radius: f32,
     /// Minor semi-axis in metres (≤ `radius`).
     pub minor_radius: f32,
+    /// The surface's normal curvatures in the frame `(axis, normal × axis)`, 1/m
+    /// ([`Splat::curvature`](crate::Splat::curvature)).
+    pub curvature: [f32; 3],
 }
 
 /// The elliptical splat of the point `position` with unit `normal`, from the positions of its
@@ -42,6 +45,11 @@ pub struct SplatShape {
 ///    surface of curvature radius R), which is what dominated the sparse-vs-dense error in
 ///    the measurements (docs/BENCHMARKS.md, "Headless renderer").
 ///
+/// 4. the **curvature**: the least-squares quadric `h = −½(k_aa x² + 2k_ab xy + k_bb y²)` of
+///    the neighbours' heights `h` above the tangent plane at their tangent offsets `(x, y)`
+///    (positions only: the normals of scans are too noisy to differentiate); zero when the
+///    neighbours do not determine it (fewer than three, or all on a line).
+///
 /// `None` when the normal is zero or not finite, or no neighbour is off the point in the
 /// tangent plane.
 pub fn splat_shape(
@@ -53,15 +61,18 @@ pub fn splat_shape(
     let n = DVec3::from(normal.map(f64::from)).try_normalize()?;
     let (t1, t2) = n.any_orthonormal_pair();
     let mut offsets = [DVec2::ZERO; MAX_SHAPE_NEIGHBOURS];
+    let mut heights = [0.0; MAX_SHAPE_NEIGHBOURS];
     let mut count = 0;
     for q in neighbours.iter().take(MAX_SHAPE_NEIGHBOURS) {
         let d = DVec3::from(q.map(f64::from)) - p;
         let u = DVec2::new(d.dot(t1), d.dot(t2));
-        if u.is_finite() && u.length_squared() > 0.0 {
+        if u.is_finite() && u.length_squared() > 0.0 && d.dot(n).is_finite() {
             offsets[count] = u;
+            heights[count] = d.dot(n);
             count += 1;
         }
     }
+    let curvature = fit_curvature(&offsets[..count], &heights[..count]);
     let offsets = &mut offsets[..count];
     offsets.sort_by(|a, b| a.length_squared().total_cmp(&b.length_squared()));
     let mut nearest = [DVec2::ZERO; COVER_NEIGHBOURS];
@@ -108,16 +119,46 @@ pub fn splat_shape(
         .map(|u| u.dot(e1).hypot(u.dot(e2) / aspect))
         .fold(0.0, f64::max);
     let radius = f64::from(SPLAT_OVERLAP) * reach;
-    let axis = if isotropic {
-        DVec3::ZERO
-    } else {
-        e1.x * t1 + e1.y * t2
-    };
+    // The curvature is expressed in the ellipse's frame, so the axis is kept even when the
+    // ellipse is round (then `e1` is `t1`).
+    let axis = e1.x * t1 + e1.y * t2;
+    // In the renderer's frame (axis, normal × axis), whatever the handedness of (t1, t2).
+    let across = n.cross(axis);
+    let b = DVec2::new(across.dot(t1), across.dot(t2));
+    let [kxx, kxy, kyy] = curvature;
+    let form =
+        |p: DVec2, q: DVec2| kxx * p.x * q.x + kxy * (p.x * q.y + p.y * q.x) + kyy * p.y * q.y;
+    let (k_aa, k_ab, k_bb) = (form(e1, e1), form(e1, b), form(b, b));
     Some(SplatShape {
         axis: axis.as_vec3().to_array(),
         radius: radius as f32,
         minor_radius: (radius * aspect) as f32,
+        curvature: [k_aa as f32, k_ab as f32, k_bb as f32],
     })
+}
+
+/// `(k_xx, k_xy, k_yy)` of the least-squares fit `h ≈ −½(k_xx x² + 2k_xy xy + k_yy y²)` to
+/// heights `h` at tangent offsets `(x, y)`; zeros when the system is singular.
+fn fit_curvature(offsets: &[DVec2], heights: &[f64]) -> [f64; 3] {
+    // Normal equations of h = a·(−½x², −xy, −½y²).
+    let mut m = glam::DMat3::ZERO;
+    let mut rhs = DVec3::ZERO;
+    for (u, &h) in offsets.iter().zip(heights) {
+        let row = DVec3::new(-0.5 * u.x * u.x, -u.x * u.y, -0.5 * u.y * u.y);
+        m += glam::DMat3::from_cols(row * row.x, row * row.y, row * row.z);
+        rhs += row * h;
+    }
+    let scale = m.col(0).x + m.col(2).z;
+    let det = m.determinant().abs();
+    if offsets.len() < 3 || det.is_nan() || det <= 1e-9 * scale * scale * scale {
+        return [0.0; 3];
+    }
+    let k = m.inverse() * rhs;
+    if k.is_finite() {
+        k.to_array()
+    } else {
+        [0.0; 3]
+    }
 }
 
 #[cfg(test)]
@@ -186,6 +227,37 @@ mod tests {
         let axis = glam::Vec3::from(s.axis);
         assert!(axis.dot(n).abs() < 1e-5 && (axis.length() - 1.0).abs() < 1e-5);
         assert!(axis.dot(a).abs() > 0.99, "{s:?}");
+    }
+
+    #[test]
+    fn curvature_of_a_sphere_and_a_cylinder() {
+        // Neighbours on a sphere of radius 2 around its top (normal +z): k = 1/2 both ways.
+        let on_sphere = |x: f32, y: f32| [x, y, (4.0 - x * x - y * y).sqrt() - 2.0];
+        let nb: Vec<[f32; 3]> = grid_neighbours(0.1, 0.1, 16)
+            .iter()
+            .map(|q| on_sphere(q[0], q[1]))
+            .collect();
+        let s = splat_shape([0.0; 3], [0.0, 0.0, 1.0], &nb).unwrap();
+        for k in [s.curvature[0], s.curvature[2]] {
+            assert!((k - 0.5).abs() < 0.01, "{s:?}");
+        }
+        assert!(s.curvature[1].abs() < 0.01, "{s:?}");
+        // A cylinder of radius 0.5 along y, sampled densely along y: the ellipse's major
+        // axis is along x (the sparse direction), where the curvature is 2; along y, 0.
+        let nb: Vec<[f32; 3]> = grid_neighbours(0.1, 0.05, 16)
+            .iter()
+            .map(|q| [q[0], q[1], (0.25 - q[0] * q[0]).sqrt() - 0.5])
+            .collect();
+        let s = splat_shape([0.0; 3], [0.0, 0.0, 1.0], &nb).unwrap();
+        assert!(s.axis[0].abs() > 0.99, "{s:?}");
+        assert!((s.curvature[0] - 2.0).abs() < 0.05, "{s:?}");
+        assert!(
+            s.curvature[1].abs() < 0.02 && s.curvature[2].abs() < 0.02,
+            "{s:?}"
+        );
+        // A plane: zero.
+        let s = splat_shape([0.0; 3], [0.0, 0.0, 1.0], &grid_neighbours(0.1, 0.1, 12)).unwrap();
+        assert!(s.curvature.iter().all(|k| k.abs() < 1e-6), "{s:?}");
     }
 
     #[test]

@@ -8,18 +8,18 @@ use render::{Camera, Image, Overlay, SoftwareRenderer, Splat, Style};
 
 use crate::scenes::{self, Sample, gradient_energy, psnr, save};
 
-/// The bounds every sparse/dense pair meets. The issue asked for ≥ 35 dB over the frame and a
-/// gradient-energy ratio within 0.8–1.25; measured (docs/BENCHMARKS.md): the frame PSNR is
-/// 35–41 dB on the ellipsoids but 31.4 dB on the torus, and the ratio over the whole frame is
-/// 2.4–2.9, both because of the silhouettes, where tangent ellipses protrude by up to r²/2R
-/// (the disk renderer: 26–31 dB, 1.9). Inside the silhouettes the issue's bounds hold with room
-/// to spare except the torus's ratio, 1.253: so the inside is bounded at ≥ 40 dB and 0.8–1.3,
-/// the frame at ≥ `min_psnr`, and no holes.
+/// The bounds every sparse/dense pair meets: the issue's ≥ 35 dB over the frame (here ≥
+/// `min_psnr`, set just under what each scene measured: 38.5 dB torus, 40.0 and 40.4 dB the
+/// ellipsoids, docs/BENCHMARKS.md), ≥ 40 dB inside the silhouettes, the issue's gradient-energy
+/// ratio 0.8–1.25 inside them, and no holes. Over the whole frame the energy ratio is still
+/// 1.6–2.3 (flecks along the outlines), so it is reported, not bounded. Before splats were cut
+/// at silhouettes (`Splat::curvature`) the torus measured 31.4 dB: tangent ellipses reached
+/// past its outline by up to r²/2R.
 fn assert_alike(c: &Comparison, min_psnr: f64) {
     assert_eq!(c.holes, 0, "{c:?}");
     assert!(c.psnr >= min_psnr, "{c:?}");
     assert!(c.psnr_inside >= 40.0, "{c:?}");
-    assert!((0.8..=1.3).contains(&c.energy_inside), "{c:?}");
+    assert!((0.8..=1.25).contains(&c.energy_inside), "{c:?}");
 }
 
 const W: u32 = 1280;
@@ -98,7 +98,7 @@ fn clay(p: Vec3) -> [u8; 4] {
 fn sparse_and_dense_torus_render_alike() {
     let sparse = scenes::torus(3_000, 0.06, 0.025, 1, clay);
     let dense = scenes::torus(200_000, 0.06, 0.025, 2, clay);
-    assert_alike(&compare("torus", &sparse, &dense, [0.2, -0.5, -1.0]), 31.0);
+    assert_alike(&compare("torus", &sparse, &dense, [0.2, -0.5, -1.0]), 36.0);
 }
 
 /// Anisotropic sampling: a lat-long grid crowds its points along the parallels near the poles;
@@ -111,7 +111,7 @@ fn anisotropic_ellipsoid_grid_renders_like_a_dense_sampling() {
     let dense = scenes::ellipsoid_random(200_000, axes, 3, color);
     assert_alike(
         &compare("ellipsoid", &sparse, &dense, [0.3, -0.8, -1.0]),
-        35.0,
+        38.0,
     );
 }
 
@@ -123,7 +123,7 @@ fn sparse_and_dense_random_ellipsoid_render_alike() {
     let dense = scenes::ellipsoid_random(200_000, axes, 5, [200, 160, 120, 255]);
     assert_alike(
         &compare("ellipsoid_random", &sparse, &dense, [0.3, -0.8, -1.0]),
-        35.0,
+        38.0,
     );
 }
 

@@ -204,14 +204,17 @@ impl SplatCache {
 }
 
 fn splat(p: DVec3, n: DVec3, c: [u8; 3], shape: &NeighbourShape) -> Splat {
-    Splat::ellipse(
-        p.as_vec3().to_array(),
-        n.as_vec3().to_array(),
-        shape.axis,
-        shape.radius,
-        shape.minor_radius,
-        [c[0], c[1], c[2], 255],
-    )
+    Splat {
+        curvature: shape.curvature_along(n),
+        ..Splat::ellipse(
+            p.as_vec3().to_array(),
+            n.as_vec3().to_array(),
+            shape.axis,
+            shape.radius,
+            shape.minor_radius,
+            [c[0], c[1], c[2], 255],
+        )
+    }
 }
 
 /// The box a view of `snap` should frame: its points and the region (a 0.2 m cube at the

@@ -50,6 +50,12 @@ pub struct NeighbourShape {
     pub minor_radius: f32,
     /// Major axis, a unit tangent; zero for a disk of `radius`.
     pub axis: [f32; 3],
+    /// Normal curvatures in the frame `(axis, plane_normal × axis)`, 1/m, positive where the
+    /// surface bends away from `plane_normal` ([`render::Splat::curvature`]).
+    pub curvature: [f32; 3],
+    /// The neighbours' own plane normal the shape was computed in (its sign is arbitrary: the
+    /// curvature's sign is relative to it).
+    pub plane_normal: [f32; 3],
 }
 
 impl NeighbourShape {
@@ -59,6 +65,18 @@ impl NeighbourShape {
             radius,
             minor_radius: radius,
             axis: [0.0; 3],
+            curvature: [0.0; 3],
+            plane_normal: [0.0; 3],
+        }
+    }
+
+    /// The curvature relative to a point's unit `normal` (flipped when the neighbours' plane
+    /// normal points the other way).
+    pub fn curvature_along(&self, normal: DVec3) -> [f32; 3] {
+        if normal.dot(DVec3::from(self.plane_normal.map(f64::from))) < 0.0 {
+            self.curvature.map(|k| -k)
+        } else {
+            self.curvature
         }
     }
 
@@ -86,15 +104,14 @@ impl NeighbourShape {
         let Some((_, vectors)) = sim_core::linalg::sym3_eigen(cov) else {
             return disk;
         };
-        match render::splat_shape(
-            p.as_vec3().to_array(),
-            vectors[0].as_vec3().to_array(),
-            &neighbours[..count],
-        ) {
+        let plane_normal = vectors[0].as_vec3().to_array();
+        match render::splat_shape(p.as_vec3().to_array(), plane_normal, &neighbours[..count]) {
             Some(s) if s.radius.is_finite() && s.radius > 0.0 => Self {
                 radius: s.radius.max(1e-6),
                 minor_radius: s.minor_radius.clamp(1e-6, s.radius.max(1e-6)),
                 axis: s.axis,
+                curvature: s.curvature,
+                plane_normal,
             },
             _ => disk,
         }
