@@ -130,6 +130,11 @@ pub(crate) struct SplatSetup {
     pub albedo: Vec3,
     /// Unit normal turned towards the eye.
     pub normal: Vec3,
+    /// How the surface normal changes per unit `û` and `v̂` across the splat (`K·u`, `K·v`,
+    /// turned with `normal`): the attribute pass blends `normal + û·dn_u + v̂·dn_v`, the normal
+    /// of the curved surface the splat stands for, not its plane's (Phong splatting).
+    pub dn_u: Vec3,
+    pub dn_v: Vec3,
 }
 
 /// Builds the setup of `s`, or `None` when it draws nothing (zero radius, culled, or reaching
@@ -170,10 +175,16 @@ pub(crate) fn setup(s: &Splat, f: &FrameParams) -> Option<SplatSetup> {
     if !(a > 0.0 && b > 0.0) {
         return None;
     }
-    let cut = if ax2 > 1e-12 {
-        silhouette_cut(s.curvature, n, du * a, dv * b, to_eye)
+    let (cut, dn_u, dn_v) = if ax2 > 1e-12 {
+        let [kaa, kab, kbb] = s.curvature;
+        let turn = if facing < 0.0 { -1.0 } else { 1.0 };
+        (
+            silhouette_cut(s.curvature, n, du * a, dv * b, to_eye),
+            turn * a * (kaa * du + kab * dv),
+            turn * b * (kab * du + kbb * dv),
+        )
     } else {
-        Vec4::ZERO
+        (Vec4::ZERO, Vec3::ZERO, Vec3::ZERO)
     };
     let (u, v) = (du * a, dv * b);
     let pc = p.extend(1.0);
@@ -235,6 +246,8 @@ pub(crate) fn setup(s: &Splat, f: &FrameParams) -> Option<SplatSetup> {
         bbox,
         albedo,
         normal: if facing < 0.0 { -n } else { n },
+        dn_u,
+        dn_v,
     })
 }
 
@@ -303,6 +316,11 @@ pub(crate) struct Sample {
     pub weight: f32,
     pub depth: f32,
     pub depth_pushed: f32,
+    /// `(û, v̂)` of the ray's hit on the splat's plane; zero where the screen-space pre-filter
+    /// gave the weight (there the splat's centre normal is blended: bringing the hit back onto
+    /// the ellipse's edge instead darkened outlines, frame gradient energy 1.75 → 2.03 on the
+    /// torus; cutting those pixels at silhouettes too left 50–70 holes).
+    pub uv: Vec2,
 }
 
 /// The sample of splat `s` at pixel centre `(px, py)`, or `None` outside its footprint or the
@@ -317,6 +335,7 @@ pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<
     let d2_scr = (dx * dx + dy * dy) * (1.0 / (PREFILTER_PX * PREFILTER_PX));
     let mut d2 = d2_scr;
     let mut w = s.wc;
+    let mut uv = Vec2::ZERO;
     if s.obj && den > 1e-6 {
         let scale = s.wc / den;
         let d2_obj = (gx * gx + gy * gy) * (scale * scale);
@@ -326,6 +345,7 @@ pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<
         if kept && d2_obj <= d2_scr {
             d2 = d2_obj;
             w = scale;
+            uv = Vec2::new(cu, cv);
         }
     }
     if d2 > 1.0 {
@@ -339,6 +359,7 @@ pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<
         weight: ((-GAUSS_K * d2).exp() - EDGE_WEIGHT) * (1.0 / (1.0 - EDGE_WEIGHT)),
         depth,
         depth_pushed: (f.depth_a + f.depth_b / (w + s.eps)).min(1.0),
+        uv,
     })
 }
 
@@ -448,6 +469,32 @@ mod tests {
             silhouette_cut([-1.0, 0.0, -1.0], n, u, v, f.eye),
             Vec4::ZERO
         );
+    }
+
+    #[test]
+    fn the_blended_normal_is_the_curved_surfaces() {
+        // A splat facing the camera, standing for a sphere of radius 0.5 (curvature 2): half
+        // way to its edge along its axis (x), the surface's normal leans out by r/R = 0.1.
+        let (cam, f) = frame();
+        let mut s = Splat::ellipse(
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+            0.1,
+            0.1,
+            [255; 4],
+        );
+        s.curvature = [2.0, 0.0, 2.0];
+        let st = setup(&s, &f).unwrap();
+        let p = Vec2::from(cam.project([0.05, 0.0, 0.0], 640, 480).unwrap());
+        let sm = eval(&st, &f, p.x, p.y).unwrap();
+        assert!((sm.uv - Vec2::new(0.5, 0.0)).length() < 0.02, "{:?}", sm.uv);
+        let n = st.normal + sm.uv.x * st.dn_u + sm.uv.y * st.dn_v;
+        assert!((n.x / n.z - 0.1).abs() < 0.003 && n.y.abs() < 1e-4, "{n}");
+        // Flat: the plane's normal everywhere.
+        s.curvature = [0.0; 3];
+        let st = setup(&s, &f).unwrap();
+        assert_eq!((st.dn_u, st.dn_v), (Vec3::ZERO, Vec3::ZERO));
     }
 
     #[test]

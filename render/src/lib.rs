@@ -6,13 +6,17 @@
 //!
 //! A splat ([`Splat`]) is an ellipse in the tangent plane of its normal: semi-axes `radius`
 //! along its tangent `axis` and `minor_radius` across (a disk when `axis` is zero), sized by
-//! the caller from the local spacing ([`splat_shape`] does it from a point's neighbours). What
+//! the caller from the local spacing ([`splat_shape`] does it from a point's neighbours), and
+//! carrying the surface's curvature there ([`Splat::curvature`], zero for a flat splat). What
 //! a frame draws, in this order:
 //! 1. **visibility**: every splat writes, per pixel, the depth where the pixel's ray meets its
 //!    plane (exact ray casting through the ellipse's homography), pushed back in view depth by
-//!    ε = [`EPS_FRACTION`]·radius + [`EPS_PX`] pixel footprints, nearest wins;
+//!    ε = [`EPS_FRACTION`]·radius + [`EPS_PX`] pixel footprints, nearest wins; near a silhouette
+//!    the part of the plane the ray reaches beyond the curved surface's outline is cut off
+//!    (the ray must meet the osculating paraboloid);
 //! 2. **attributes**: every splat fragment within ε of that front (depth test, no write) adds
-//!    w·albedo (linear), w and w·normal (turned to face the eye) into float sums (GPU:
+//!    w·albedo (linear), w and w·normal (the curved surface's normal at the hit, `n + K·x`,
+//!    Phong splatting; turned to face the eye) into float sums (GPU:
 //!    two `Rgba16Float` targets, additive blending), with w the Gaussian of the fragment's
 //!    elliptical distance d: `(exp(-K d²) − e^-K) / (1 − e^-K)`, K = [`GAUSS_K`] (σ = radius/2,
 //!    truncated and zero at the ellipse's edge);

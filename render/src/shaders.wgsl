@@ -63,6 +63,8 @@ struct Ewa {
     k: vec4<f32>,         // (uz, vz), 1 if the object-space term exists, 1 if drawn
     bbox: vec4<f32>,      // x0, y0, x1, y1 (pixels)
     cut: vec4<f32>,       // the silhouette cut: kept where 1 + xy·g − (zw·g)² ≥ 0 (zero: none)
+    dn_u: vec3<f32>,      // the normal's change per unit û and v̂ (K·u, K·v; turned with it)
+    dn_v: vec3<f32>,
     albedo: vec3<f32>,
     normal: vec3<f32>,
 };
@@ -162,8 +164,13 @@ fn ewa_setup(i: u32) -> Ewa {
     let u = du * ra;
     let v = dv * rb;
     e.cut = vec4<f32>(0.0);
+    e.dn_u = vec3<f32>(0.0);
+    e.dn_v = vec3<f32>(0.0);
     if ax2 > 1e-12 {
         e.cut = silhouette_cut(d4.xyz, n, u, v, to_eye);
+        let turn = select(1.0, -1.0, facing < 0.0);
+        e.dn_u = turn * ra * (d4.x * du + d4.y * dv);
+        e.dn_v = turn * rb * (d4.y * du + d4.z * dv);
     }
     let pc = vec4<f32>(p, 1.0);
     let wc = dot(frame.row_w, pc);
@@ -207,10 +214,17 @@ fn ewa_setup(i: u32) -> Ewa {
     return e;
 }
 
-// `ewa::eval` at pixel centre `pos`: (weight, depth, pushed depth, 1) or w = 0 outside.
-fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>, cut: vec4<f32>, pos: vec2<f32>) -> vec4<f32> {
+// `ewa::eval` at pixel centre `pos`: v = (weight, depth, pushed depth, 1), or v.w = 0 outside;
+// uv = (û, v̂) of the object-space hit (zero from the screen-space pre-filter).
+struct EwaSample {
+    v: vec4<f32>,
+    uv: vec2<f32>,
+};
+
+fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>, cut: vec4<f32>, pos: vec2<f32>) -> EwaSample {
+    var none: EwaSample;
     if pos.x < bbox.x || pos.x > bbox.z || pos.y < bbox.y || pos.y > bbox.w {
-        return vec4<f32>(0.0);
+        return none;
     }
     let dx = pos.x - center_wc.x;
     let dy = pos.y - center_wc.y;
@@ -221,6 +235,7 @@ fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>
     let d2_scr = (dx * dx + dy * dy) * (1.0 / (pf * pf));
     var d2 = d2_scr;
     var w = center_wc.z;
+    var uv = vec2<f32>(0.0);
     if k.z > 0.5 && den > 1e-6 {
         let scale = center_wc.z / den;
         let d2_obj = (gx * gx + gy * gy) * (scale * scale);
@@ -231,18 +246,22 @@ fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>
         if kept && d2_obj <= d2_scr {
             d2 = d2_obj;
             w = scale;
+            uv = vec2<f32>(cu, cv);
         }
     }
     if d2 > 1.0 {
-        return vec4<f32>(0.0);
+        return none;
     }
     let depth = frame.ewa.x + frame.ewa.y / w;
     if !(depth >= 0.0 && depth <= 1.0) {
-        return vec4<f32>(0.0);
+        return none;
     }
     let pushed = min(frame.ewa.x + frame.ewa.y / (w + center_wc.w), 1.0);
     let edge = exp(-frame.ewa_k.x);
-    return vec4<f32>((exp(-frame.ewa_k.x * d2) - edge) * (1.0 / (1.0 - edge)), depth, pushed, 1.0);
+    var out: EwaSample;
+    out.v = vec4<f32>((exp(-frame.ewa_k.x * d2) - edge) * (1.0 / (1.0 - edge)), depth, pushed, 1.0);
+    out.uv = uv;
+    return out;
 }
 
 struct EwaOut {
@@ -254,6 +273,8 @@ struct EwaOut {
     @location(4) @interpolate(flat) albedo: vec3<f32>,
     @location(5) @interpolate(flat) normal: vec3<f32>,
     @location(6) @interpolate(flat) cut: vec4<f32>,
+    @location(7) @interpolate(flat) dn_u: vec3<f32>,
+    @location(8) @interpolate(flat) dn_v: vec3<f32>,
 };
 
 // Splat vi / 6, corner vi % 6 of the two triangles covering its pixel box exactly: half the
@@ -269,6 +290,8 @@ fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
     out.albedo = e.albedo;
     out.normal = e.normal;
     out.cut = e.cut;
+    out.dn_u = e.dn_u;
+    out.dn_v = e.dn_v;
     if e.k.w < 0.5 {
         out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0); // draws nothing: one point outside the view
         return out;
@@ -286,7 +309,7 @@ fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
 // Pass 1, visibility: the nearest depth pushed back by ε.
 @fragment
 fn fs_ewa_visibility(v: EwaOut) -> @builtin(frag_depth) f32 {
-    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.cut, v.clip.xy);
+    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.cut, v.clip.xy).v;
     if s.w < 0.5 {
         discard;
     }
@@ -299,16 +322,18 @@ struct AttributeOut {
     @builtin(frag_depth) depth: f32,
 };
 
-// Pass 2, attributes: every fragment within ε of the front adds w·albedo, w, w·normal.
+// Pass 2, attributes: every fragment within ε of the front adds w·albedo, w, w·normal (the
+// curved surface's normal at the hit: normal + û·dn_u + v̂·dn_v).
 @fragment
 fn fs_ewa_attribute(v: EwaOut) -> AttributeOut {
-    let s = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.cut, v.clip.xy);
+    let r = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.cut, v.clip.xy);
+    let s = r.v;
     if s.w < 0.5 {
         discard;
     }
     var out: AttributeOut;
     out.color = vec4<f32>(s.x * v.albedo, s.x);
-    out.normal = vec4<f32>(s.x * v.normal, 0.0);
+    out.normal = vec4<f32>(s.x * (v.normal + r.uv.x * v.dn_u + r.uv.y * v.dn_v), 0.0);
     out.depth = s.y;
     return out;
 }
