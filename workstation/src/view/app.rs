@@ -21,6 +21,7 @@ use crate::live::Workstation;
 use crate::live::frames::{self, SplatCache};
 use crate::live::points::ChunkedPoints;
 use crate::live::scene_file::ToolKind;
+use crate::live::sim::SimReport;
 use crate::live::sim::{Settings, SimCommand};
 
 /// The window's state in `--state` JSON.
@@ -198,6 +199,15 @@ impl ViewApp {
         });
         if let Ok(mut log) = self.link.log.lock() {
             lines.append(&mut log);
+        }
+        // What each stroke did (the demo's driver reads these itself: then nothing is owned).
+        if let Some((ws, _)) = &self.owned {
+            while let Some(r) = ws.next_report(std::time::Duration::ZERO) {
+                lines.push(match r {
+                    SimReport::Stroke(s) => format!("{}: {}", s.tool.name(), s.summary),
+                    SimReport::Failed(e) => format!("the simulation stopped: {e}"),
+                });
+            }
         }
         for l in lines {
             self.say(l);

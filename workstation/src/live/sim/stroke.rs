@@ -231,6 +231,17 @@ impl SimCore {
             _ => 0,
         };
         let index = self.strokes.len();
+        // The region simulates the field only within its band of the rest surface: a stroke
+        // that reached it was cut flat there.
+        let band = self.file.region.band;
+        let at_band = committed >= 0.9 * band;
+        if at_band {
+            tracing::warn!(
+                committed_mm = committed * 1e3,
+                band_mm = band * 1e3,
+                "the stroke reached the region's band"
+            );
+        }
         let summary = match s.tool {
             ToolKind::Paint => format!(
                 "{painted} point colourings over {} steps, up to {:.2} N",
@@ -246,6 +257,15 @@ impl SimCore {
                 resampled.removed,
                 resampled.projected
             ),
+        };
+        let summary = if at_band {
+            format!(
+                "{summary}; it reached the region's band ({:.1} mm from the rest surface) and is \
+                 cut flat there: stroke again from the new surface, or give [region] a wider band",
+                band * 1e3
+            )
+        } else {
+            summary
         };
         self.strokes.push(StrokeReport {
             index,

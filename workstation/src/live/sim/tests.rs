@@ -210,6 +210,12 @@ fn a_probe_pull_commits_a_bump_whose_points_lie_on_the_field() {
     assert!(height > 4.0, "{height} mm");
     assert!(r.inserted > 20, "{r:?}");
     assert!(off < 0.25, "a point {off} mm off the committed surface");
+    // The bump filled the band, and the stroke's summary (shown in the window) says so.
+    let summary = &c.strokes()[0].summary;
+    assert!(
+        summary.contains("reached the region's band (8.0 mm"),
+        "{summary}"
+    );
     // Pulled 13.7 mm out, beyond the band: the probe left the material behind and it relaxed
     // before the release, so the committed field has no bump. The points must say so too
     // (before the commit resampled probe pulls, followers stood 6.9 mm out, on no surface).
