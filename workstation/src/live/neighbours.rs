@@ -70,11 +70,13 @@ impl NeighbourShape {
         }
     }
 
-    /// The curvature relative to a point's unit `normal` (flipped when the neighbours' plane
-    /// normal points the other way).
+    /// The curvature relative to a point's unit `normal`, in the renderer's frame
+    /// `(axis, normal × axis)`. When the neighbours' plane normal points the other way the form
+    /// changes sign and so does the frame's second axis: `k_aa` and `k_bb` flip, `k_ab` stays.
     pub fn curvature_along(&self, normal: DVec3) -> [f32; 3] {
+        let [aa, ab, bb] = self.curvature;
         if normal.dot(DVec3::from(self.plane_normal.map(f64::from))) < 0.0 {
-            self.curvature.map(|k| -k)
+            [-aa, ab, -bb]
         } else {
             self.curvature
         }
@@ -651,6 +653,50 @@ mod tests {
         c.update(&e);
         assert_eq!(c.shapes(), full(&more));
         assert!(c.shapes().iter().all(|s| s.radius != LONE_RADIUS));
+    }
+
+    #[test]
+    fn the_curvature_is_the_surfaces_whichever_way_the_normals_point() {
+        // The cylinder z = −½·κ·(x cos 30° + y sin 30°)², κ = 20/m, bending away from +z along
+        // a direction that is neither axis of the sampling grid (1 mm × 1.5 mm): the normal
+        // curvature along a tangent w is κ (w·d)² for d that direction, relative to +z.
+        let d = DVec3::new(30f64.to_radians().cos(), 30f64.to_radians().sin(), 0.0);
+        let kappa = 20.0;
+        let pts: Vec<DVec3> = (-6..=6)
+            .flat_map(|i| (-6..=6).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let (x, y) = (i as f64 * 0.001, j as f64 * 0.0015);
+                let s = x * d.x + y * d.y;
+                DVec3::new(x, y, -0.5 * kappa * s * s)
+            })
+            .collect();
+        let mut c = NeighbourCache::default();
+        c.rebuild(pts);
+        let shape = c.shapes()[6 * 13 + 6];
+        let a = DVec3::from(shape.axis.map(f64::from));
+        for n in [DVec3::Z, -DVec3::Z] {
+            let [kaa, kab, kbb] = shape.curvature_along(n).map(f64::from);
+            let b = n.cross(a);
+            let form = |w: DVec3| {
+                let (x, y) = (w.dot(a), w.dot(b));
+                kaa * x * x + 2.0 * kab * x * y + kbb * y * y
+            };
+            // Relative to n: +κ(w·d)² for +z, −κ(w·d)² for −z.
+            let sign = n.z;
+            for w in [
+                d,
+                DVec3::X,
+                DVec3::Y,
+                DVec3::new(1.0, -1.0, 0.0).normalize(),
+            ] {
+                let want = sign * kappa * w.dot(d).powi(2);
+                assert!(
+                    (form(w) - want).abs() < 0.5,
+                    "{n} {w}: {} vs {want}",
+                    form(w)
+                );
+            }
+        }
     }
 
     #[test]
