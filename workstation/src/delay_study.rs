@@ -115,6 +115,11 @@ pub fn rms(a: &[Vec3]) -> f64 {
     rms_error(a, &vec![Vec3::ZERO; a.len()])
 }
 
+/// Largest `|a|`.
+pub fn peak(a: &[Vec3]) -> f64 {
+    a.iter().map(|f| f64::from(f.length())).fold(0.0, f64::max)
+}
+
 /// Peak-to-peak of `|F|` in the steady part of the held press, N.
 pub fn hold_ripple(t: &Trace) -> (f64, f64) {
     let (a, b) = sim::HOLD_WINDOW_S;

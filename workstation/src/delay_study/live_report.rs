@@ -10,8 +10,9 @@ use protocol::LinkParams;
 use serde::Serialize;
 
 use super::live::{LiveSpec, LiveTrace, Sculpt, shape_difference, simulate_live};
+use super::plots::err;
 use super::sim::Method;
-use super::{DelayStudyArgs, ENERGY_TOLERANCE_J, RunRow, rms_error};
+use super::{DelayStudyArgs, ENERGY_TOLERANCE_J, RunRow, peak, rms_error};
 
 /// One live run's figures.
 #[derive(Debug, Clone, Serialize)]
@@ -182,11 +183,7 @@ fn row(
         loss,
         force_error_rms_n: rms_error(&t.force, &reference.force),
         force_error_vs_ideal_rms_n: rms_error(&t.force, &ideal.force),
-        peak_force_n: t
-            .force
-            .iter()
-            .map(|f| f64::from(f.length()))
-            .fold(0.0, f64::max),
+        peak_force_n: peak(&t.force),
         energy_generated_j: t.energy_delivered_j,
         energy_added_j: t.energy_delivered_j - reference.energy_delivered_j,
         observer_min_j: t.observer_min_j,
@@ -324,9 +321,8 @@ pub fn csv(r: &LiveReport) -> String {
 /// `live_error_vs_delay.png`: force error against the ideal vs delay, per stroke and method,
 /// clean link (solid) and with loss or jitter (the worst of them, dashed markers).
 pub fn plot(path: &Path, r: &LiveReport) -> anyhow::Result<()> {
-    let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("plot: {e}");
     let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
+    root.fill(&WHITE).map_err(err)?;
     let panels = root.split_evenly((1, 2));
     let dmax = r.runs.iter().map(|x| x.delay_ms).fold(1.0, f64::max) * 1.05;
     let emax = r
@@ -345,12 +341,12 @@ pub fn plot(path: &Path, r: &LiveReport) -> anyhow::Result<()> {
             .x_label_area_size(40)
             .y_label_area_size(60)
             .build_cartesian_2d(0.0..dmax, 0.0..emax)
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
         c.configure_mesh()
             .x_desc("one-way delay (ms)")
             .y_desc("RMS |F − F_ideal| (N)")
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
         for m in Method::ALL {
             let col = super::plots::colour(m);
             let mine = |clean: bool| {
@@ -364,25 +360,25 @@ pub fn plot(path: &Path, r: &LiveReport) -> anyhow::Result<()> {
                 .map(|x| (x.delay_ms, x.force_error_vs_ideal_rms_n))
                 .collect();
             c.draw_series(LineSeries::new(pts.clone(), col.stroke_width(2)))
-                .map_err(|e| err(&e))?
+                .map_err(err)?
                 .label(m.name())
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
                 });
             c.draw_series(pts.into_iter().map(|p| Circle::new(p, 4, col.filled())))
-                .map_err(|e| err(&e))?;
+                .map_err(err)?;
             c.draw_series(
                 mine(false).map(|x| Cross::new((x.delay_ms, x.force_error_vs_ideal_rms_n), 4, col)),
             )
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
         }
         c.configure_series_labels()
             .position(SeriesLabelPosition::UpperLeft)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
     }
-    root.present().map_err(|e| err(&e))?;
+    root.present().map_err(err)?;
     Ok(())
 }

@@ -18,7 +18,7 @@ pub(super) fn colour(m: Method) -> RGBColor {
     }
 }
 
-fn err(e: impl std::fmt::Display) -> anyhow::Error {
+pub(super) fn err(e: impl std::fmt::Display) -> anyhow::Error {
     anyhow::anyhow!("plot: {e}")
 }
 

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::sim::{self, Method, Trace};
-use super::{DelayStudyArgs, ENERGY_TOLERANCE_J, HOLD_RIPPLE_N, hold_ripple, rms, rms_error};
+use super::{DelayStudyArgs, ENERGY_TOLERANCE_J, HOLD_RIPPLE_N, hold_ripple, peak, rms, rms_error};
 
 /// One run's figures.
 #[derive(Debug, Clone, Serialize)]
@@ -141,11 +141,7 @@ pub fn row(
         deadband,
         force_error_rms_n: rms_error(&t.force, &reference.force),
         force_error_vs_ideal_rms_n: rms_error(&t.force, &ideal.force),
-        peak_force_n: t
-            .force
-            .iter()
-            .map(|f| f64::from(f.length()))
-            .fold(0.0, f64::max),
+        peak_force_n: peak(&t.force),
         energy_generated_j: t.energy_delivered_j,
         observer_net_j: t.observer_net_j,
         observer_min_j: t.observer_min_j,
