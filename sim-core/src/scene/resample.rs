@@ -27,6 +27,7 @@
 use std::collections::HashSet;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::{Region, Scene, SceneError, SceneObject};
 use crate::dynamics::DynamicGrid;
@@ -123,17 +124,29 @@ pub(super) fn off_surface(
         Some((base, model)) => sculpted_value(base, model, x),
         None => field.value_and_gradient(x),
     };
+    // Each point's projection reads only the field: in parallel, applied in order below.
+    let outcome: Vec<Option<Option<(DVec3, DVec3)>>> = which
+        .par_iter()
+        .with_min_len(64)
+        .map(|&i| {
+            let p = obj.positions[i as usize];
+            let (f, _) = eval(p);
+            if f.abs() <= tol && !follower.is_stranded(i as usize) {
+                return None;
+            }
+            Some(match project(&eval, p, tol, h) {
+                Some((q, n)) if q.distance(p) <= MAX_PROJECTION * h => Some((q, n)),
+                _ => None,
+            })
+        })
+        .collect();
     let mut removed = Vec::new();
     let mut moves = Vec::new();
-    for &i in which {
-        let p = obj.positions[i as usize];
-        let (f, _) = eval(p);
-        if f.abs() <= tol && !follower.is_stranded(i as usize) {
-            continue;
-        }
-        match project(&eval, p, tol, h) {
-            Some((q, n)) if q.distance(p) <= MAX_PROJECTION * h => moves.push((i, q, n)),
-            _ => removed.push(i),
+    for (&i, o) in which.iter().zip(outcome) {
+        match o {
+            None => {}
+            Some(Some((q, n))) => moves.push((i, q, n)),
+            Some(None) => removed.push(i),
         }
     }
     report.candidates += which.len();
@@ -218,24 +231,49 @@ pub(super) fn even_out(
     let spec = *region.model.spec();
     let (lo, hi) = (spec.origin, spec.max_corner());
     // Onto the (refitted) zero set: the field the picture and the next stroke start from.
-    let field = obj.field.clone();
+    // Projections read only the field: in parallel, applied in order. No handle on the field
+    // is held across a removal, which edits the field's point map: a second handle would make
+    // that edit copy the whole field (O(scene), 1.3 s at 10⁶ points).
     let tol = opts.tolerance * h;
-    let eval = |x: DVec3| field.value_and_gradient(x);
     let mut sorted: Vec<u32> = cands.iter().copied().collect();
     sorted.sort_unstable();
+    let settled: Vec<Settled> = {
+        let field = &obj.field;
+        let positions = &obj.positions;
+        let eval = |x: DVec3| field.value_and_gradient(x);
+        sorted
+            .par_iter()
+            .with_min_len(64)
+            .map(|&i| {
+                let p = positions[i as usize];
+                let (f, g) = field.value_and_gradient(p);
+                if f.abs() <= tol {
+                    return Settled::On(g.try_normalize());
+                }
+                match project(&eval, p, tol, h) {
+                    Some((q, n)) if q.distance(p) <= MAX_PROJECTION * h => Settled::Projected(q, n),
+                    _ => Settled::Off,
+                }
+            })
+            .collect()
+    };
+    // Every candidate's normal is now the field's (the projections return the gradient's), and
+    // stays so: later points are inserted with the gradient's normal and the field no longer
+    // changes.
     let mut off = Vec::new();
-    for &i in &sorted {
-        let p = obj.positions[i as usize];
-        if field.value(p).abs() <= tol {
-            continue;
-        }
-        match project(&eval, p, tol, h) {
-            Some((q, n)) if q.distance(p) <= MAX_PROJECTION * h => {
+    for (&i, o) in sorted.iter().zip(settled) {
+        match o {
+            Settled::On(n) => {
+                if let Some(n) = n {
+                    obj.normals[i as usize] = n;
+                }
+            }
+            Settled::Projected(q, n) => {
                 obj.positions[i as usize] = q;
                 obj.normals[i as usize] = n;
                 report.projected += 1;
             }
-            _ => off.push(i),
+            Settled::Off => off.push(i),
         }
     }
     report.removed += apply_removals(obj, region, off, &mut cands);
@@ -286,7 +324,9 @@ pub(super) fn even_out(
         }
     }
     report.removed += apply_removals(obj, region, gone.into_iter().collect(), &mut cands);
-    // Holes, a few passes.
+    // Holes, a few passes. Insertions add points without local fields: the field is not edited
+    // from here on.
+    let field = obj.field.clone();
     let mut around: Vec<u32> = cands.iter().copied().collect();
     around.sort_unstable();
     for _ in 0..opts.passes {
@@ -296,40 +336,47 @@ pub(super) fn even_out(
             break;
         }
         let index = PointIndex::new(&local);
+        // Each candidate's proposal (the projected centre of its largest empty circle, if
+        // wider than the gap) reads only the index and the field: in parallel. Accepted in
+        // order, a proposal closer than half a gap to an accepted one is dropped.
+        let proposals: Vec<Option<(DVec3, DVec3)>> = around
+            .par_iter()
+            .with_min_len(32)
+            .map_init(
+                || Vec::with_capacity(opts.k + 1),
+                |hood, &i| {
+                    let (p, n) = (obj.positions[i as usize], obj.normals[i as usize]);
+                    if !interior(p) {
+                        return None;
+                    }
+                    hood.clear();
+                    hood.extend(
+                        index
+                            .nearest_k(p, opts.k + 1)
+                            .into_iter()
+                            .map(|(k, _)| local[k])
+                            .filter(|&q| q != p),
+                    );
+                    let (c, r) = largest_empty_circle(p, n, hood)?;
+                    if r <= opts.max_gap * h {
+                        return None;
+                    }
+                    let (q, qn) =
+                        project(&|x| field.value_and_gradient(x), c, opts.tolerance * h, h)?;
+                    (q.distance(c) <= r && interior(q)).then_some((q, qn))
+                },
+            )
+            .collect();
         let mut added: Vec<(DVec3, DVec3, u32)> = Vec::new();
-        let mut hood = Vec::with_capacity(opts.k);
-        for &i in &around {
-            let (p, n) = (obj.positions[i as usize], obj.normals[i as usize]);
-            if !interior(p) {
-                continue;
-            }
-            hood.clear();
-            hood.extend(
-                index
-                    .nearest_k(p, opts.k + 1)
-                    .into_iter()
-                    .map(|(k, _)| local[k])
-                    .filter(|&q| q != p),
-            );
-            let Some((c, r)) = largest_empty_circle(p, n, &hood) else {
+        let mut taken = NearGrid::new(0.5 * opts.max_gap * h);
+        for (&i, proposal) in around.iter().zip(proposals) {
+            let Some((q, qn)) = proposal else {
                 continue;
             };
-            if r <= opts.max_gap * h {
+            if taken.any_within(q, &added) {
                 continue;
             }
-            let Some((q, qn)) = project(&|x| field.value_and_gradient(x), c, opts.tolerance * h, h)
-            else {
-                continue;
-            };
-            if q.distance(c) > r || !interior(q) {
-                continue;
-            }
-            if added
-                .iter()
-                .any(|(a, _, _)| a.distance(q) < 0.5 * opts.max_gap * h)
-            {
-                continue;
-            }
+            taken.insert(q, added.len() as u32);
             added.push((q, qn, i));
         }
         if added.is_empty() {
@@ -352,13 +399,62 @@ pub(super) fn even_out(
         around.sort_unstable();
         around.dedup();
     }
-    // Normals from the field.
-    for &i in &cands {
-        let (_, g) = field.value_and_gradient(obj.positions[i as usize]);
-        if let Some(n) = g.try_normalize() {
-            obj.normals[i as usize] = n;
-            region.follower.mark_changed(i);
+    // Their normals were set from the field as they settled or were inserted.
+    let mut sorted: Vec<u32> = cands.into_iter().collect();
+    sorted.sort_unstable();
+    for i in sorted {
+        region.follower.mark_changed(i);
+    }
+}
+
+/// A settling candidate: on the zero set (with the gradient's direction, if any), projected
+/// onto it (position and normal), or off it for good (removed).
+enum Settled {
+    On(Option<DVec3>),
+    Projected(DVec3, DVec3),
+    Off,
+}
+
+/// Accepted insertions hashed by cells of the exclusion distance `d`, so a proposal is tested
+/// against the accepted ones within `d` only (was every accepted one: quadratic in a pass's
+/// insertions, tens of thousands at 10⁶ points).
+struct NearGrid {
+    d: f64,
+    cells: std::collections::HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl NearGrid {
+    fn new(d: f64) -> Self {
+        Self {
+            d,
+            cells: std::collections::HashMap::new(),
         }
+    }
+
+    fn cell(&self, x: DVec3) -> [i64; 3] {
+        let c = (x / self.d).floor();
+        [c.x as i64, c.y as i64, c.z as i64]
+    }
+
+    /// Whether an accepted point (its index into `added` stored here) is closer than `d`.
+    fn any_within(&self, q: DVec3, added: &[(DVec3, DVec3, u32)]) -> bool {
+        let [cx, cy, cz] = self.cell(q);
+        (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dz| {
+                    self.cells
+                        .get(&[cx + dx, cy + dy, cz + dz])
+                        .is_some_and(|v| {
+                            v.iter().any(|&k| added[k as usize].0.distance(q) < self.d)
+                        })
+                })
+            })
+        })
+    }
+
+    fn insert(&mut self, q: DVec3, k: u32) {
+        let c = self.cell(q);
+        self.cells.entry(c).or_default().push(k);
     }
 }
 
