@@ -65,18 +65,32 @@ struct Ewa {
     cut: vec4<f32>,       // the silhouette cut: kept where 1 + xy·g − (zw·g)² ≥ 0 (zero: none)
     dn_u: vec3<f32>,      // the normal's change per unit û and v̂ (K·u, K·v; turned with it)
     dn_v: vec3<f32>,
+    bend: vec3<f32>,      // S·K·t / c: the hit on the curved surface (`ewa::Silhouette`)
+    quad: vec3<f32>,      // K's quadratic form in (û, v̂)
     albedo: vec3<f32>,
     normal: vec3<f32>,
 };
 
-// `ewa::CUT_SLACK` (a test checks the two agree).
+// `ewa::CUT_SLACK` and `ewa::TURN_BELOW` (a test checks they agree).
 const CUT_SLACK: f32 = 1.0;
+const TURN_BELOW: f32 = 0.3;
 
-// `ewa::silhouette_cut`.
-fn silhouette_cut(k: vec3<f32>, n: vec3<f32>, u: vec3<f32>, v: vec3<f32>, to_eye: vec3<f32>) -> vec4<f32> {
+// `ewa::Silhouette`.
+struct Silhouette {
+    cut: vec4<f32>,
+    bend: vec3<f32>,
+    quad: vec3<f32>,
+};
+
+// `ewa::silhouette`.
+fn silhouette(k: vec3<f32>, n: vec3<f32>, u: vec3<f32>, v: vec3<f32>, to_eye: vec3<f32>) -> Silhouette {
+    var none: Silhouette;
+    none.cut = vec4<f32>(0.0);
+    none.bend = vec3<f32>(0.0);
+    none.quad = vec3<f32>(0.0);
     let el = length(to_eye);
     if !(el > 0.0) {
-        return vec4<f32>(0.0);
+        return none;
     }
     let e = to_eye / el;
     let ne = dot(n, e);
@@ -85,7 +99,7 @@ fn silhouette_cut(k: vec3<f32>, n: vec3<f32>, u: vec3<f32>, v: vec3<f32>, to_eye
     let ul = length(u);
     let vl = length(v);
     if !(tl > 1e-6 && ul > 0.0 && vl > 0.0) {
-        return vec4<f32>(0.0);
+        return none;
     }
     let t = t0 / tl;
     let sd = cross(n, t);
@@ -99,7 +113,7 @@ fn silhouette_cut(k: vec3<f32>, n: vec3<f32>, u: vec3<f32>, v: vec3<f32>, to_eye
     let kts = (k.x * tx * sx + k.y * (tx * sy + ty * sx) + k.z * ty * sy);
     let ks = (k.x * sx * sx + 2.0 * k.y * sx * sy + k.z * sy * sy);
     if !(kt > 0.0) {
-        return vec4<f32>(0.0);
+        return none;
     }
     let c = select(1.0, -1.0, ne < 0.0) * max(abs(ne), 1e-4);
     let sn = sqrt(max(1.0 - c * c, 0.0));
@@ -111,7 +125,38 @@ fn silhouette_cut(k: vec3<f32>, n: vec3<f32>, u: vec3<f32>, v: vec3<f32>, to_eye
     if q < 0.0 {
         m = bs * (sqrt(-q) / CUT_SLACK);
     }
-    return vec4<f32>(l, m);
+    var out = none;
+    out.cut = vec4<f32>(l, m);
+    if ne <= 0.0 {
+        return out;
+    }
+    let kt_world = (k.x * tx + k.y * ty) * du + (k.y * tx + k.z * ty) * dv;
+    out.bend = kt_world * (sn / c);
+    out.quad = vec3<f32>(k.x * ul * ul, k.y * ul * vl, k.z * vl * vl);
+    return out;
+}
+
+// `ewa::hit_normal`: the curved surface's normal where the eye's ray meets it, at the plane
+// point uv (zero from the pre-filter).
+fn hit_normal(normal: vec3<f32>, dn_u: vec3<f32>, dn_v: vec3<f32>, cut: vec4<f32>, bend: vec3<f32>, quad: vec3<f32>, uv: vec2<f32>) -> vec3<f32> {
+    let plane = normal + uv.x * dn_u + uv.y * dn_v;
+    let q = quad.x * uv.x * uv.x + 2.0 * quad.y * uv.x * uv.y + quad.z * uv.y * uv.y;
+    if q == 0.0 {
+        return plane;
+    }
+    let lg = CUT_SLACK * (cut.x * uv.x + cut.y * uv.y);
+    let mg = CUT_SLACK * (cut.z * uv.x + cut.w * uv.y);
+    let sigma = q / (1.0 + 0.5 * lg + sqrt(max(1.0 + lg - mg * mg, 0.0)));
+    let b = sigma * bend;
+    let len = length(b);
+    // `len == len` is false for NaN; 3.4e38 stands for infinity.
+    if !(len == len && len < 3.4e38 && sigma > 0.0) {
+        return plane;
+    }
+    if len > 1.0 {
+        return plane - b / len;
+    }
+    return plane - b;
 }
 
 // `ewa::setup`: the splat's projected ellipse; k.w = 0 when it draws nothing.
@@ -146,6 +191,7 @@ fn ewa_setup(i: u32) -> Ewa {
     if frame.options.x > 0.5 && len2 > 1e-12 && facing < 0.0 {
         return e;
     }
+    let turned = facing < -TURN_BELOW * length(to_eye);
     let ra = b4.z;
     let axis = c4.xyz;
     let ax = axis - n * dot(axis, n);
@@ -166,9 +212,14 @@ fn ewa_setup(i: u32) -> Ewa {
     e.cut = vec4<f32>(0.0);
     e.dn_u = vec3<f32>(0.0);
     e.dn_v = vec3<f32>(0.0);
+    e.bend = vec3<f32>(0.0);
+    e.quad = vec3<f32>(0.0);
     if ax2 > 1e-12 {
-        e.cut = silhouette_cut(d4.xyz, n, u, v, to_eye);
-        let turn = select(1.0, -1.0, facing < 0.0);
+        let sil = silhouette(d4.xyz, n, u, v, to_eye);
+        e.cut = sil.cut;
+        e.bend = sil.bend;
+        e.quad = sil.quad;
+        let turn = select(1.0, -1.0, turned);
         e.dn_u = turn * ra * (d4.x * du + d4.y * dv);
         e.dn_v = turn * rb * (d4.y * du + d4.z * dv);
     }
@@ -210,7 +261,7 @@ fn ewa_setup(i: u32) -> Ewa {
     e.center_wc = vec4<f32>(cx, cy, wc, frame.ewa_k.y * ra + frame.ewa.w * wc);
     e.k = vec4<f32>(uz, vz, select(0.0, 1.0, obj), 1.0);
     e.albedo = srgb_to_linear(unpack4x8unorm(bitcast<u32>(b4.w)).rgb);
-    e.normal = select(n, -n, facing < 0.0);
+    e.normal = select(n, -n, turned);
     return e;
 }
 
@@ -275,6 +326,8 @@ struct EwaOut {
     @location(6) @interpolate(flat) cut: vec4<f32>,
     @location(7) @interpolate(flat) dn_u: vec3<f32>,
     @location(8) @interpolate(flat) dn_v: vec3<f32>,
+    @location(9) @interpolate(flat) bend: vec3<f32>,
+    @location(10) @interpolate(flat) quad: vec3<f32>,
 };
 
 // Splat vi / 6, corner vi % 6 of the two triangles covering its pixel box exactly: half the
@@ -292,6 +345,8 @@ fn vs_ewa(@builtin(vertex_index) vi: u32) -> EwaOut {
     out.cut = e.cut;
     out.dn_u = e.dn_u;
     out.dn_v = e.dn_v;
+    out.bend = e.bend;
+    out.quad = e.quad;
     if e.k.w < 0.5 {
         out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0); // draws nothing: one point outside the view
         return out;
@@ -323,7 +378,7 @@ struct AttributeOut {
 };
 
 // Pass 2, attributes: every fragment within ε of the front adds w·albedo, w, w·normal (the
-// curved surface's normal at the hit: normal + û·dn_u + v̂·dn_v).
+// curved surface's normal where the eye's ray meets it, `hit_normal`).
 @fragment
 fn fs_ewa_attribute(v: EwaOut) -> AttributeOut {
     let r = ewa_eval(v.center_wc, v.ainv, v.k, v.bbox, v.cut, v.clip.xy);
@@ -333,7 +388,7 @@ fn fs_ewa_attribute(v: EwaOut) -> AttributeOut {
     }
     var out: AttributeOut;
     out.color = vec4<f32>(s.x * v.albedo, s.x);
-    out.normal = vec4<f32>(s.x * (v.normal + r.uv.x * v.dn_u + r.uv.y * v.dn_v), 0.0);
+    out.normal = vec4<f32>(s.x * hit_normal(v.normal, v.dn_u, v.dn_v, v.cut, v.bend, v.quad, r.uv), 0.0);
     out.depth = s.y;
     return out;
 }

@@ -280,7 +280,7 @@ impl Band<'_> {
                     let a = &mut accum[i];
                     a.color += sm.weight * s.albedo;
                     a.weight += sm.weight;
-                    a.normal += sm.weight * (s.normal + sm.uv.x * s.dn_u + sm.uv.y * s.dn_v);
+                    a.normal += sm.weight * ewa::hit_normal(s, sm.uv);
                 }
             });
         }

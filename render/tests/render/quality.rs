@@ -9,17 +9,21 @@ use render::{Camera, Image, Overlay, SoftwareRenderer, Splat, Style};
 use crate::scenes::{self, Sample, gradient_energy, psnr, save};
 
 /// The bounds every sparse/dense pair meets: the issue's ≥ 35 dB over the frame (here ≥
-/// `min_psnr`, set under what each scene measured: 39.8 dB torus, 40.1 and 40.7 dB the
-/// ellipsoids, docs/BENCHMARKS.md), ≥ 48 dB inside the silhouettes (50.7–54.8), the issue's
-/// gradient-energy ratio 0.8–1.25 inside them (0.93–0.96), and no holes. Over the whole frame
-/// the energy ratio is still 1.5–1.75 (flecks along the outlines), so it is reported, not
-/// bounded. With flat splats (before `Splat::curvature`: no silhouette cut, the plane's normal
-/// everywhere) the torus measured 31.4 dB over the frame and 41.9 dB inside.
+/// `min_psnr`, set under what each scene measured: 40.5 dB torus, 40.2 and 40.9 dB the
+/// ellipsoids, docs/BENCHMARKS.md), ≥ 48 dB inside the silhouettes (51.0–54.3), the issue's
+/// gradient-energy ratio 0.8–1.25 inside them (0.99–1.03), and no holes. Over the whole frame
+/// (outlines included) the ratio is 1.20–1.28, bounded at 1.35: the outlines' last pixels take
+/// the curved surface's normal where the eye's ray meets it (`ewa::hit_normal`) and splats
+/// just behind an outline keep their own normal (`ewa::TURN_BELOW`); before those two it was
+/// 1.48–1.75, light flecks along every outline. With flat splats (before `Splat::curvature`:
+/// no silhouette cut, the plane's normal everywhere) the torus measured 31.4 dB over the frame
+/// and 41.9 dB inside.
 fn assert_alike(c: &Comparison, min_psnr: f64) {
     assert_eq!(c.holes, 0, "{c:?}");
     assert!(c.psnr >= min_psnr, "{c:?}");
     assert!(c.psnr_inside >= 48.0, "{c:?}");
     assert!((0.8..=1.25).contains(&c.energy_inside), "{c:?}");
+    assert!((0.8..=1.35).contains(&c.energy), "{c:?}");
 }
 
 const W: u32 = 1280;
@@ -40,7 +44,7 @@ fn bounds(samples: &[Sample]) -> ([f32; 3], [f32; 3]) {
 
 /// How a sparse render compares with a dense one of the same shape.
 #[derive(Debug)]
-#[allow(dead_code)] // `energy` and `silhouette_px` are reported (Debug), not bounded.
+#[allow(dead_code)] // `silhouette_px` is reported (Debug), not bounded.
 struct Comparison {
     /// PSNR over the whole frame (background included, as the issue measured the disks).
     psnr: f64,

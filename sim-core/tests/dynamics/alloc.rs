@@ -107,10 +107,7 @@ fn a_commit_allocates_for_the_region_not_the_object() {
             let offset = DVec3::new(0.5 * c as f64, 0.0, 0.0);
             set.positions
                 .extend(part.positions.iter().map(|&p| p + offset));
-            set.normals
-                .as_mut()
-                .unwrap()
-                .extend(part.normals.unwrap());
+            set.normals.as_mut().unwrap().extend(part.normals.unwrap());
         }
         let object = SceneObject::fit("spheres", set, &sim_core::FitParams::default()).unwrap();
         let h = sim_core::resample::spacing(&object.positions[..6000]);
