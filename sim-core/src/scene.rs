@@ -104,6 +104,10 @@ pub struct RegionParams {
     /// points off the surface, merge crowded ones, fill holes; see [`ResampleOptions`]);
     /// `None`: never.
     pub resample: Option<ResampleOptions>,
+    /// The band follows the surface ([`DynamicGrid::grow_band`] after every step, margin one
+    /// grid cell): a stroke that carries the surface towards the band's edge extends the band
+    /// instead of being cut flat there. `false`: the band stays where the region opened it.
+    pub band_follows: bool,
 }
 
 impl RegionParams {
@@ -120,6 +124,7 @@ impl RegionParams {
             follow: FollowOptions::default(),
             auto_upsample: None,
             resample: None,
+            band_follows: true,
         }
     }
 }
@@ -403,6 +408,9 @@ impl Scene {
         let tool_nodes = tools(&mut region.model)?;
         observer.stage_done(SculptStage::Tools);
         let step = region.stepper.step(&mut region.model, dt)?;
+        if region.params.band_follows {
+            region.model.grow_band(region.params.spacing);
+        }
         observer.stage_done(SculptStage::Integrate);
         region.pending_dt += dt;
         region.steps += 1;

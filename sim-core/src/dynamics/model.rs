@@ -29,6 +29,8 @@ pub const FIXED: u32 = u32::MAX - 1;
 pub const ABSENT: u32 = u32::MAX;
 /// `slot_of` entry of an inactive node.
 const INACTIVE: u32 = u32::MAX;
+/// `slot_of` of a node while [`DynamicGrid::grow_band`] adds it.
+const JOINING: u32 = u32::MAX - 2;
 
 /// Physical parameters of one node (units: value units are metres of signed distance).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -266,6 +268,131 @@ impl DynamicGrid {
             Some(s) => self.rest[g] + self.u[s],
             None => self.rest[g],
         }
+    }
+
+    /// Let the band follow the surface: every node outside the band ([`FIXED`]) next to a
+    /// simulated node whose value `|d⁰ + u|` is below `margin` (the zero set is within about
+    /// `margin` plus a cell of the band's edge) joins the simulation, with the mean
+    /// displacement, velocity and parameters of its simulated neighbours (the displacement
+    /// field extended by one cell, so no value near the surface jumps) and its rest value
+    /// unchanged. Returns how many joined. Without it a stroke that reaches the band's edge is
+    /// cut flat there: the nodes beyond are held at rest. O(simulated nodes) to look; a growth
+    /// (rare: when the surface nears the edge) rebuilds the spring table and may allocate.
+    pub fn grow_band(&mut self, margin: f64) -> usize {
+        let mut joining: Vec<u32> = Vec::new();
+        for s in 0..self.active.len() {
+            if !self.nbr[s].contains(&FIXED) {
+                continue;
+            }
+            let g = self.active[s] as usize;
+            if (self.rest[g] + self.u[s]).abs() >= margin {
+                continue;
+            }
+            for h in self.axis_neighbours(g) {
+                if self.slot_of[h] == INACTIVE {
+                    self.slot_of[h] = JOINING;
+                    joining.push(h as u32);
+                }
+            }
+        }
+        if joining.is_empty() {
+            return 0;
+        }
+        joining.sort_unstable();
+        // The joining nodes' state from their already simulated neighbours.
+        let state: Vec<(f64, f64, NodeParams)> = joining
+            .iter()
+            .map(|&h| {
+                let (mut n, mut u, mut v) = (0.0, 0.0, 0.0);
+                let mut p = NodeParams {
+                    mass: 0.0,
+                    damping: 0.0,
+                    stiffness: 0.0,
+                    anchor: 0.0,
+                };
+                for q in self.axis_neighbours(h as usize) {
+                    let sq = self.slot_of[q];
+                    if sq == INACTIVE || sq == JOINING {
+                        continue;
+                    }
+                    let sq = sq as usize;
+                    let np = self.node_params(sq);
+                    (n, u, v) = (n + 1.0, u + self.u[sq], v + self.v[sq]);
+                    p.mass += np.mass;
+                    p.damping += np.damping;
+                    p.stiffness += np.stiffness;
+                    p.anchor += np.anchor;
+                }
+                let k = 1.0 / n;
+                let p = NodeParams {
+                    mass: p.mass * k,
+                    damping: p.damping * k,
+                    stiffness: p.stiffness * k,
+                    anchor: p.anchor * k,
+                };
+                (u * k, v * k, p)
+            })
+            .collect();
+        for (&h, (u, v, p)) in joining.iter().zip(state) {
+            self.slot_of[h as usize] = self.active.len() as u32;
+            self.active.push(h);
+            self.u.push(u);
+            self.v.push(v);
+            self.force.push(0.0);
+            self.params.mass.push(p.mass);
+            self.params.damping.push(p.damping);
+            self.params.stiffness.push(p.stiffness);
+            self.params.anchor.push(p.anchor);
+        }
+        // The new slots' neighbour rows, and their neighbours' rows (FIXED → slot).
+        self.nbr = self
+            .active
+            .iter()
+            .map(|&g| neighbours(&self.spec, &self.slot_of, g as usize))
+            .collect();
+        self.springs = SpringTable::build(&self.nbr, &self.params);
+        joining.len()
+    }
+
+    /// Whether the zero set reaches where the model cannot move it: a simulated node whose
+    /// value differs in sign from a neighbour outside the band ([`FIXED`], held at rest), or
+    /// that lies on the grid's boundary with `|d⁰ + u|` under half a cell after moving more
+    /// than that (the surface carried to a face of the region's box; one that crosses a face
+    /// at rest is not). A stroke there is cut flat. O(simulated nodes).
+    pub fn zero_set_at_edge(&self) -> bool {
+        let half = 0.5 * self.spec.spacing;
+        (0..self.active.len()).any(|s| {
+            let g = self.active[s] as usize;
+            let v = self.rest[g] + self.u[s];
+            self.nbr[s]
+                .iter()
+                .zip(self.axis_neighbours_all(g))
+                .any(|(&n, h)| match n {
+                    FIXED => h.is_some_and(|h| (self.rest[h] > 0.0) != (v > 0.0)),
+                    ABSENT => v.abs() < half && self.u[s].abs() > half,
+                    _ => false,
+                })
+        })
+    }
+
+    /// The grid indices of node `g`'s six axis neighbours in [`Self::neighbours_of`]'s order
+    /// (−x, +x, −y, +y, −z, +z), `None` outside the grid.
+    fn axis_neighbours_all(&self, g: usize) -> [Option<usize>; 6] {
+        let spec = self.spec;
+        let [i, j, k] = spec.coords(g);
+        [
+            (i > 0).then(|| spec.index(i - 1, j, k)),
+            (i + 1 < spec.dims[0]).then(|| spec.index(i + 1, j, k)),
+            (j > 0).then(|| spec.index(i, j - 1, k)),
+            (j + 1 < spec.dims[1]).then(|| spec.index(i, j + 1, k)),
+            (k > 0).then(|| spec.index(i, j, k - 1)),
+            (k + 1 < spec.dims[2]).then(|| spec.index(i, j, k + 1)),
+        ]
+    }
+
+    /// The grid indices of node `g`'s axis neighbours inside the grid.
+    fn axis_neighbours(&self, g: usize) -> impl Iterator<Item = usize> + use<> {
+        self.axis_neighbours_all(g).into_iter().flatten()
     }
 
     /// Parameters of slot `s`.

@@ -221,6 +221,12 @@ impl SimCore {
                 .iter()
                 .fold(0.0, |a: f64, u| a.max(u.abs()))
         });
+        // The band follows the surface, but the region's box does not: a surface carried to
+        // its faces is cut flat there.
+        let at_edge = self
+            .scene
+            .region()
+            .is_some_and(|r| r.model().zero_set_at_edge());
         let refitted = self.scene.end_stroke()?;
         let resampled = self
             .scene
@@ -231,15 +237,10 @@ impl SimCore {
             _ => 0,
         };
         let index = self.strokes.len();
-        // The region simulates the field only within its band of the rest surface: a stroke
-        // that reached it was cut flat there.
-        let band = self.file.region.band;
-        let at_band = committed >= 0.9 * band;
-        if at_band {
+        if at_edge {
             tracing::warn!(
                 committed_mm = committed * 1e3,
-                band_mm = band * 1e3,
-                "the stroke reached the region's band"
+                "the stroke reached the edge of the region"
             );
         }
         let summary = match s.tool {
@@ -258,11 +259,12 @@ impl SimCore {
                 resampled.projected
             ),
         };
-        let summary = if at_band {
+        let summary = if at_edge {
+            let (lo, hi) = (self.bounds.0 * 1e3, self.bounds.1 * 1e3);
             format!(
-                "{summary}; it reached the region's band ({:.1} mm from the rest surface) and is \
-                 cut flat there: stroke again from the new surface, or give [region] a wider band",
-                band * 1e3
+                "{summary}; it reached the edge of the region (box [{:.0}, {:.0}, {:.0}] to \
+                 [{:.0}, {:.0}, {:.0}] mm) and is cut flat there: give [region] a larger box",
+                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
             )
         } else {
             summary
