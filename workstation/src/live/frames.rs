@@ -203,7 +203,21 @@ impl SplatCache {
     }
 }
 
+/// A point's normal further than this (cosine) from the plane its neighbours span is not the
+/// surface's there: its splat takes the plane's normal (turned to agree with the point's).
+pub const NORMAL_AGREES: f64 = 0.8;
+
+/// The splat of point `p` with normal `n`. A normal that disagrees with the point's neighbours
+/// (a sculpted rim's field gradient can be tens of degrees off) would stand the splat out of the
+/// surface as a stray disk; there the neighbours' plane orients it ([`NORMAL_AGREES`]).
 fn splat(p: DVec3, n: DVec3, c: [u8; 3], shape: &NeighbourShape) -> Splat {
+    let plane = DVec3::from(shape.plane_normal.map(f64::from));
+    let cos = n.dot(plane);
+    let n = if plane.length_squared() > 0.5 && cos.abs() < NORMAL_AGREES * n.length() {
+        if cos < 0.0 { -plane } else { plane }
+    } else {
+        n
+    };
     Splat {
         curvature: shape.curvature_along(n),
         ..Splat::ellipse(
