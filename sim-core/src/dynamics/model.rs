@@ -106,6 +106,9 @@ pub struct DynamicGrid {
     pub(crate) springs: SpringTable,
     time: f64,
     pool: Vec<Arc<ScalarGrid>>,
+    /// Slots with a neighbour outside the band ([`FIXED`]): the band's edge, which
+    /// [`Self::grow_band`] watches.
+    edge: Vec<u32>,
 }
 
 impl DynamicGrid {
@@ -141,6 +144,7 @@ impl DynamicGrid {
             anchor: vec![params.anchor; n],
         };
         let springs = SpringTable::build(&nbr, &params);
+        let edge = edge_slots(&nbr);
         Ok(Self {
             spec,
             band,
@@ -155,6 +159,7 @@ impl DynamicGrid {
             springs,
             time: 0.0,
             pool: Vec::new(),
+            edge,
         })
     }
 
@@ -276,14 +281,12 @@ impl DynamicGrid {
     /// displacement, velocity and parameters of its simulated neighbours (the displacement
     /// field extended by one cell, so no value near the surface jumps) and its rest value
     /// unchanged. Returns how many joined. Without it a stroke that reaches the band's edge is
-    /// cut flat there: the nodes beyond are held at rest. O(simulated nodes) to look; a growth
+    /// cut flat there: the nodes beyond are held at rest. O(nodes on the band's edge) to look; a growth
     /// (rare: when the surface nears the edge) rebuilds the spring table and may allocate.
     pub fn grow_band(&mut self, margin: f64) -> usize {
         let mut joining: Vec<u32> = Vec::new();
-        for s in 0..self.active.len() {
-            if !self.nbr[s].contains(&FIXED) {
-                continue;
-            }
+        for &s in &self.edge {
+            let s = s as usize;
             let g = self.active[s] as usize;
             if (self.rest[g] + self.u[s]).abs() >= margin {
                 continue;
@@ -351,6 +354,7 @@ impl DynamicGrid {
             .map(|&g| neighbours(&self.spec, &self.slot_of, g as usize))
             .collect();
         self.springs = SpringTable::build(&self.nbr, &self.params);
+        self.edge = edge_slots(&self.nbr);
         joining.len()
     }
 
@@ -455,7 +459,10 @@ impl DynamicGrid {
         let n = self.active.len();
         let per_slot = 4 + 24 + 7 * 8 + 7 * 8 + 24;
         let per_node = 4 + 8;
-        n * per_slot + self.slot_of.len() * per_node + self.pool.len() * self.rest.len() * 8
+        n * per_slot
+            + self.slot_of.len() * per_node
+            + self.pool.len() * self.rest.len() * 8
+            + self.edge.capacity() * 4
     }
 
     /// An immutable snapshot of the current values `d⁰ + u` on the whole grid, for readers on
@@ -482,6 +489,13 @@ impl DynamicGrid {
         }
         Arc::clone(&self.pool[idx])
     }
+}
+
+/// The slots with a neighbour outside the band.
+fn edge_slots(nbr: &[[u32; 6]]) -> Vec<u32> {
+    (0..nbr.len() as u32)
+        .filter(|&s| nbr[s as usize].contains(&FIXED))
+        .collect()
 }
 
 fn neighbours(spec: &GridSpec, slot_of: &[u32], g: usize) -> [u32; 6] {
