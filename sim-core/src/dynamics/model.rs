@@ -360,9 +360,10 @@ impl DynamicGrid {
 
     /// Whether the zero set reaches where the model cannot move it: a simulated node whose
     /// value differs in sign from a neighbour outside the band ([`FIXED`], held at rest), or
-    /// that lies on the grid's boundary with `|d⁰ + u|` under half a cell after moving more
-    /// than that (the surface carried to a face of the region's box; one that crosses a face
-    /// at rest is not). A stroke there is cut flat. O(simulated nodes).
+    /// that lies on the grid's boundary and either changed sign in this stroke (`d⁰` and
+    /// `d⁰ + u`) or ended within a cell of the zero set after moving more than half one (the
+    /// surface carried to or through a face of the region's box; one that crosses a face at
+    /// rest is not). A stroke there is cut flat. O(simulated nodes).
     pub fn zero_set_at_edge(&self) -> bool {
         let half = 0.5 * self.spec.spacing;
         (0..self.active.len()).any(|s| {
@@ -373,7 +374,11 @@ impl DynamicGrid {
                 .zip(self.axis_neighbours_all(g))
                 .any(|(&n, h)| match n {
                     FIXED => h.is_some_and(|h| (self.rest[h] > 0.0) != (v > 0.0)),
-                    ABSENT => v.abs() < half && self.u[s].abs() > half,
+                    ABSENT => {
+                        let u = self.u[s];
+                        (v > 0.0) != (self.rest[g] > 0.0)
+                            || (v.abs() < 2.0 * half && u.abs() > half)
+                    }
                     _ => false,
                 })
         })
