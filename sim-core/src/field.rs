@@ -92,6 +92,8 @@ struct FieldData {
     slot: Vec<u32>,
     /// Slots no point owns any more (their points were removed; the fields stay in the blend).
     orphans: Vec<u32>,
+    /// Slots the fit made; those from here on were added by [`GlobalField::relocate_point`].
+    fitted: usize,
     grid: SupportGrid,
     refit: Arc<RefitOperator>,
     scale: f64,
@@ -207,6 +209,7 @@ impl GlobalField {
                 nearest_ids: inliers,
                 slot,
                 orphans: Vec::new(),
+                fitted: n,
                 grid,
                 refit: Arc::new(refit),
                 scale,
@@ -468,24 +471,28 @@ impl GlobalField {
     /// seed work near the trusted zero set (block-sparse meshing).
     pub fn trusted_balls(&self) -> impl Iterator<Item = (DVec3, f64)> + '_ {
         let d = &*self.inner;
-        d.nearest_ids.iter().map(move |&s| {
-            let s = s as usize;
-            (d.frames[s].center, d.params.trust * d.support[s])
-        })
+        d.nearest_ids
+            .iter()
+            .map(|&s| s as usize)
+            .chain(d.fitted..d.frames.len())
+            .map(move |s| (d.frames[s].center, d.params.trust * d.support[s]))
     }
 
-    /// The support ball of every inlier: (centre, support radius).
+    /// The support ball of every inlier: (centre, support radius), relocated fields
+    /// ([`GlobalField::relocate_point`]) included.
     pub fn support_balls(&self) -> impl Iterator<Item = (DVec3, f64)> + '_ {
         let d = &*self.inner;
-        d.nearest_ids.iter().map(move |&s| {
-            let s = s as usize;
-            (d.frames[s].center, d.support[s])
-        })
+        d.nearest_ids
+            .iter()
+            .map(|&s| s as usize)
+            .chain(d.fitted..d.frames.len())
+            .map(move |s| (d.frames[s].center, d.support[s]))
     }
 
-    /// Number of points (local fields, outliers included).
+    /// Number of points fitted (local fields, outliers included; relocated fields not
+    /// counted twice).
     pub fn len(&self) -> usize {
-        self.inner.frames.len()
+        self.inner.fitted
     }
 
     /// Always `false`: a field has at least one point.
@@ -600,6 +607,40 @@ impl GlobalField {
         if let Some(s) = self.slot_of(i) {
             self.refit_slot(s, samples);
         }
+    }
+
+    /// Give point `i` a new local field on `frame` (its domain moved with the point, which a
+    /// stroke carried away from where the old one was fitted), fitted to `samples` of the
+    /// field wanted there at [`GlobalField::refit_nodes`]' positions for that frame (the
+    /// [`RefitOperator`]'s nodes mapped by `frame`). The old field stays in the blend as an
+    /// orphan (it still represents the field around where it is); the new one keeps the old
+    /// support radius and takes `frame`'s third axis as its normal. Returns the new slot, or
+    /// `None` (nothing changed) for a point without a local field or an outlier. O(1)
+    /// amortised, unless the field is shared (copy-on-write).
+    pub fn relocate_point(
+        &mut self,
+        i: usize,
+        frame: LocalFrame,
+        samples: &[f64],
+    ) -> Option<usize> {
+        let old = self.slot_of(i)?;
+        let support = self.inner.support[old];
+        if support.is_nan() || support <= 0.0 {
+            return None;
+        }
+        let data = Arc::make_mut(&mut self.inner);
+        let c = data.params.size.pow(3);
+        let s = data.frames.len();
+        data.frames.push(frame);
+        data.support.push(support);
+        data.normals.push(frame.axes[2]);
+        data.coeffs.resize((s + 1) * c, 0.0);
+        let refit = Arc::clone(&data.refit);
+        refit.apply(samples, &mut data.coeffs[s * c..(s + 1) * c]);
+        data.orphans.push(old as u32);
+        data.slot[i] = s as u32;
+        data.grid.insert(frame.center, support, s as u32);
+        Some(s)
     }
 
     /// [`GlobalField::refit_local`] by storage slot.
@@ -732,6 +773,7 @@ impl Clone for FieldData {
             nearest_ids: self.nearest_ids.clone(),
             slot: self.slot.clone(),
             orphans: self.orphans.clone(),
+            fitted: self.fitted,
             grid: self.grid.clone(),
             refit: Arc::clone(&self.refit),
             scale: self.scale,

@@ -488,8 +488,19 @@ impl Scene {
         }
         // Removed points' fields are refitted too: they stay in the blend as orphans.
         let slots = refit_samples(&base, &region.model, &changed, &mut region.samples);
+        let relocations = relocations(
+            &obj.field,
+            &region.model,
+            &base,
+            &obj.positions,
+            &obj.normals,
+            &changed,
+        );
         drop(base);
         apply_refit(&mut obj.field, &slots, &region.samples);
+        for (i, frame, samples) in relocations {
+            obj.field.relocate_point(i as usize, frame, &samples);
+        }
         region.model.commit();
         if let Some(max_gap) = region.params.auto_upsample {
             let which: Vec<usize> = region
@@ -534,6 +545,63 @@ impl Scene {
     pub fn publish(&mut self) -> Option<Arc<ScalarGrid>> {
         self.region.as_mut().map(|r| r.model.publish())
     }
+}
+
+/// A moved point farther than this fraction of its local domain's half edge from the domain's
+/// centre gets a new local field centred where it is now ([`relocations`]).
+pub const RELOCATE_BEYOND: f64 = 0.5;
+
+/// The local fields to move with their points at a commit: for every point of `changed` that
+/// a stroke carried more than [`RELOCATE_BEYOND`] of its domain away from the domain's centre,
+/// a frame centred on the point (axes from its normal, the same size) and the sculpted field's
+/// samples at the refit nodes of that frame (the region's grid values `d⁰ + u` where the grid
+/// reaches, else `f_base + Δ`). Without this, the blend near a surface pulled farther than half
+/// a domain has only fields fitted around where the surface was: their low-order patches do not
+/// reach the new surface well, and the committed point-set field lags behind the grid's (a 7.5
+/// mm rope bump's top stayed 7.6 mm low, and its mesh and points showed a torn plateau).
+fn relocations(
+    field: &GlobalField,
+    model: &DynamicGrid,
+    base: &GlobalField,
+    positions: &[DVec3],
+    normals: &[DVec3],
+    changed: &[u32],
+) -> Vec<(u32, crate::local_fit::LocalFrame, Vec<f64>)> {
+    use rayon::prelude::*;
+    let op = std::sync::Arc::clone(field.refit_operator());
+    let n = op.samples();
+    changed
+        .par_iter()
+        .filter_map(|&i| {
+            let s = field.slot_of(i as usize)?;
+            let old = field.slot_frame(s);
+            let (p, normal) = (positions[i as usize], normals[i as usize]);
+            if field.slot_support(s) <= 0.0 || p.distance(old.center) <= RELOCATE_BEYOND * old.half
+            {
+                return None;
+            }
+            let w = normal.try_normalize()?;
+            let (u, v) = w.any_orthonormal_pair();
+            let frame = crate::local_fit::LocalFrame {
+                center: p,
+                axes: [u, v, w],
+                half: old.half,
+            };
+            let mut samples = Vec::with_capacity(n * n * n);
+            for a in 0..n {
+                for b in 0..n {
+                    for c in 0..n {
+                        let x = frame.to_world(op.node(a, b, c));
+                        let f = model
+                            .value_at(x)
+                            .unwrap_or_else(|| crate::follow::sculpted_value(base, model, x).0);
+                        samples.push(f);
+                    }
+                }
+            }
+            Some((i, frame, samples))
+        })
+        .collect()
 }
 
 /// Apply `tools` in order; the number of nodes they touched.

@@ -27,6 +27,31 @@ struct Level {
     /// Supports sorted by cell, with their centre and squared radius inline so the distance
     /// test reads contiguous memory.
     items: Vec<SupportItem>,
+    /// Supports added after construction ([`SupportGrid::insert`]), by cell key; visited
+    /// after a cell's sorted items.
+    added: HashMap<u64, Vec<SupportItem>, BuildHasherDefault<MulHasher>>,
+}
+
+impl Level {
+    /// The supports stored in cell `k`: the sorted ones, then the added ones (two slices, so
+    /// the hot loop over the first stays a plain slice loop).
+    #[inline]
+    fn cell(&self, k: u64) -> [&[SupportItem]; 2] {
+        let sorted = match self.cells.get(&k) {
+            Some(&(s, e)) => &self.items[s as usize..e as usize],
+            None => &[][..],
+        };
+        let added = if self.added.is_empty() {
+            &[][..]
+        } else {
+            self.added.get(&k).map_or(&[][..], Vec::as_slice)
+        };
+        [sorted, added]
+    }
+
+    fn is_empty(&self) -> bool {
+        self.items.is_empty() && self.added.is_empty()
+    }
 }
 
 /// One stored support: centre, squared radius, id.
@@ -113,13 +138,38 @@ impl SupportGrid {
         self.base
     }
 
+    /// Add support `id` (ball of `radius` at `center`) after construction: found by every query
+    /// from now on, after the supports the grid was built with in the same cell. A support
+    /// larger than any level so far gets its level. Amortised O(1).
+    pub fn insert(&mut self, center: DVec3, radius: f64, id: u32) {
+        if !(radius > 0.0 && radius.is_finite() && center.is_finite()) {
+            return;
+        }
+        let ratio = (2.0 * radius / self.base).max(1.0);
+        let l = (ratio.log2().ceil() as usize).min(60);
+        while self.levels.len() <= l {
+            let cell = self.base * (1u64 << self.levels.len()) as f64;
+            self.levels.push(Level {
+                cell,
+                ..Level::default()
+            });
+        }
+        let level = &mut self.levels[l];
+        let k = key(cell_of(center - self.origin, level.cell));
+        level.added.entry(k).or_default().push(SupportItem {
+            center,
+            radius2: radius * radius,
+            id,
+        });
+    }
+
     /// Call `visit(i, x − cᵢ, |x − cᵢ|²)` for every stored support `i` that contains `x`
     /// (`|x − cᵢ| < rᵢ`). Allocation-free.
     #[inline]
     pub fn for_each_containing(&self, x: DVec3, mut visit: impl FnMut(usize, DVec3, f64)) {
         let rel = x - self.origin;
         for level in &self.levels {
-            if level.items.is_empty() {
+            if level.is_empty() {
                 continue;
             }
             let f = rel / level.cell;
@@ -132,8 +182,8 @@ impl SupportGrid {
                 for dy in 0..2 {
                     for dx in 0..2 {
                         let k = key([lo.x + dx, lo.y + dy, lo.z + dz]);
-                        if let Some(&(s, e)) = level.cells.get(&k) {
-                            for item in &level.items[s as usize..e as usize] {
+                        for items in level.cell(k) {
+                            for item in items {
                                 let rel = x - item.center;
                                 let dist2 = rel.length_squared();
                                 if dist2 < item.radius2 {
@@ -154,7 +204,7 @@ impl SupportGrid {
     pub(crate) fn gather_box(&self, lo: DVec3, hi: DVec3, out: &mut Vec<SupportItem>) {
         out.clear();
         for level in &self.levels {
-            if level.items.is_empty() {
+            if level.is_empty() {
                 continue;
             }
             // A support lives in its centre's cell, and its radius is at most half a cell.
@@ -170,11 +220,9 @@ impl SupportGrid {
             for z in first.z..=last.z {
                 for y in first.y..=last.y {
                     for x in first.x..=last.x {
-                        let Some(&(s, e)) = level.cells.get(&key([x, y, z])) else {
-                            continue;
-                        };
-                        let items = &level.items[s as usize..e as usize];
-                        out.extend(items.iter().filter(|item| item.reaches_box(lo, hi)));
+                        for items in level.cell(key([x, y, z])) {
+                            out.extend(items.iter().filter(|item| item.reaches_box(lo, hi)));
+                        }
                     }
                 }
             }

@@ -275,6 +275,20 @@ impl DynamicGrid {
         }
     }
 
+    /// The trilinear interpolant of the current values `d⁰ + u` at `x` (nodes outside the band
+    /// at their rest values); `None` outside the grid.
+    pub fn value_at(&self, x: DVec3) -> Option<f64> {
+        let ([ci, cj, ck], t) = self.spec.locate(x)?;
+        let w = |a: f64, d: usize| if d == 0 { 1.0 - a } else { a };
+        let mut v = 0.0;
+        for c in 0..8 {
+            let (dx, dy, dz) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            let g = self.spec.index(ci + dx, cj + dy, ck + dz);
+            v += w(t.x, dx) * w(t.y, dy) * w(t.z, dz) * self.value(g);
+        }
+        Some(v)
+    }
+
     /// Let the band follow the surface: every node outside the band ([`FIXED`]) next to a
     /// simulated node whose value `|d⁰ + u|` is below `margin` (the zero set is within about
     /// `margin` plus a cell of the band's edge) joins the simulation, with the mean
