@@ -507,17 +507,22 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_curved_splat_is_cut_only_beyond_the_outline_near_a_silhouette() {
-        let (_, f) = frame();
-        // The camera looks along −z from +z. A splat at the centre of the view standing for a
-        // sphere of radius 1 (curvature 1, radius 0.3), its normal tilted 80° from the eye.
+    /// The camera looks along −z from +z. A splat at the centre of the view standing for a
+    /// sphere of radius 1 (curvature 1, radius 0.3, centre −n), its normal `n` tilted 80° from
+    /// the eye: the splat, its setup, `n` and its semi-axis vectors `u`, `v`.
+    fn near_the_outline(f: &FrameParams) -> (Splat, SplatSetup, Vec3, Vec3, Vec3) {
         let tilt = 80f32.to_radians();
         let n = Vec3::new(tilt.sin(), 0.0, tilt.cos());
         let mut s = Splat::ellipse([0.0; 3], n.to_array(), [0.0, 1.0, 0.0], 0.3, 0.3, [255; 4]);
         s.curvature = [1.0, 0.0, 1.0];
-        let st = setup(&s, &f).unwrap();
-        let (u, v) = (Vec3::Y * 0.3, n.cross(Vec3::Y) * 0.3);
+        let st = setup(&s, f).unwrap();
+        (s, st, n, Vec3::Y * 0.3, n.cross(Vec3::Y) * 0.3)
+    }
+
+    #[test]
+    fn a_curved_splat_is_cut_only_beyond_the_outline_near_a_silhouette() {
+        let (_, f) = frame();
+        let (s, st, n, u, v) = near_the_outline(&f);
         let cut = silhouette(s.curvature, n, u, v, f.eye).cut;
         assert!(
             (cut - st.cut).length() < 1e-5 * cut.length(),
@@ -554,15 +559,8 @@ mod tests {
 
     #[test]
     fn at_the_outline_the_blended_normal_is_perpendicular_to_the_eye() {
-        // The splat of `a_curved_splat_is_cut_only_beyond_the_outline_near_a_silhouette`: a
-        // sphere of radius 1 (centre −n) seen 80° from its normal.
         let (_, f) = frame();
-        let tilt = 80f32.to_radians();
-        let n = Vec3::new(tilt.sin(), 0.0, tilt.cos());
-        let mut s = Splat::ellipse([0.0; 3], n.to_array(), [0.0, 1.0, 0.0], 0.3, 0.3, [255; 4]);
-        s.curvature = [1.0, 0.0, 1.0];
-        let st = setup(&s, &f).unwrap();
-        let (u, v) = (Vec3::Y * 0.3, n.cross(Vec3::Y) * 0.3);
+        let (s, st, n, u, v) = near_the_outline(&f);
         let e = f.eye.normalize();
         let t = (e - n * n.dot(e)).normalize();
         let at = |d: Vec3| Vec2::new(d.dot(u) / 0.09, d.dot(v) / 0.09);

@@ -367,47 +367,59 @@ fn grid_height_at_pole(scene: &Scene, r: f64) -> f64 {
     f64::NAN
 }
 
+/// The demo's ball (5 cm, 6,000 points, its clay) with a region over its upper half up to
+/// `top` (m), 2.5 mm grid, 8 mm band.
+fn demo_ball(band_follows: bool, top: f64) -> Scene {
+    let mut scene = Scene::new();
+    let id = scene.add(fitted_object(Shape::Sphere { radius: 0.05 }, 6000, 2));
+    let params = RegionParams {
+        node: NodeParams {
+            mass: 1e-3,
+            damping: 0.5,
+            stiffness: 10.0,
+            anchor: 100.0,
+        },
+        band_follows,
+        ..RegionParams::new(0.0025, 0.008)
+    };
+    scene
+        .open_region(
+            id,
+            DVec3::new(-0.05, 0.0, -0.05),
+            DVec3::new(0.05, top, 0.05),
+            params,
+        )
+        .unwrap();
+    scene
+}
+
+/// A Gaussian rope of `strength` N (15 mm reach) held 1.8 s at `(0, y, 0)`, then committed.
+fn pull_up(scene: &mut Scene, y: f64, strength: f64) {
+    let rope = Rope {
+        path: vec![DVec3::new(0.0, y, 0.0)],
+        radius: 0.015,
+        strength,
+        profile: Profile::Gaussian,
+        sheet: None,
+    };
+    for _ in 0..1800 {
+        scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
+    }
+    scene.end_stroke().unwrap();
+}
+
 /// Two strong ropes pulled at a 5 cm ball's pole, the second from the top the first left, on
 /// a region whose band is 8 mm: with the band following the surface the second stroke goes on
 /// past the band the region opened with (measured 8.1 then 13.2 mm at the pole); held at that
 /// band, the surface stalls at its edge (7.8 then 9.3 mm) and the stroke is cut flat there.
 #[test]
 fn the_band_follows_the_surface_so_a_second_pull_goes_on() {
+    let r = 0.05;
     let pulled = |follows: bool| {
-        let r = 0.05;
-        let mut scene = Scene::new();
-        let id = scene.add(fitted_object(Shape::Sphere { radius: r }, 6000, 2));
-        let params = RegionParams {
-            node: NodeParams {
-                mass: 1e-3,
-                damping: 0.5,
-                stiffness: 10.0,
-                anchor: 100.0,
-            },
-            band_follows: follows,
-            ..RegionParams::new(0.0025, 0.008)
-        };
-        scene
-            .open_region(
-                id,
-                DVec3::new(-0.05, 0.0, -0.05),
-                DVec3::new(0.05, 0.08, 0.05),
-                params,
-            )
-            .unwrap();
+        let mut scene = demo_ball(follows, 0.08);
         let mut heights = Vec::new();
         for from in [r, r + 0.007] {
-            let rope = Rope {
-                path: vec![DVec3::new(0.0, from, 0.0)],
-                radius: 0.015,
-                strength: 3.0,
-                profile: Profile::Gaussian,
-                sheet: None,
-            };
-            for _ in 0..1800 {
-                scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
-            }
-            scene.end_stroke().unwrap();
+            pull_up(&mut scene, from, 3.0);
             heights.push(grid_height_at_pole(&scene, r));
         }
         let at_edge = scene.region().unwrap().model().zero_set_at_edge();
@@ -423,45 +435,18 @@ fn the_band_follows_the_surface_so_a_second_pull_goes_on() {
     assert!(!edge_follows && edge_held);
 }
 
-/// A 3 N rope pulls a 7.5 mm bump out of a 5 cm ball whose points' local fields span ±7.3 mm:
-/// the bump's top points moved farther than half their domains. At the commit their fields
-/// move with them (`RELOCATE_BEYOND`), so the committed point-set field has its zero set where
-/// the region's grid has it (measured within 0.9 mm across the bump; before, the point field
-/// still read +7.6 mm at the grid's surface over the pole: the top was missing from the field,
-/// and its mesh and points showed a torn plateau).
+/// A 2.4 N rope pulls a 7.5 mm bump out of a 5 cm ball whose points' local fields span
+/// ±7.3 mm: the bump's top points moved farther than half their domains. At the commit their
+/// fields move with them (`RELOCATE_BEYOND`), so the committed point-set field has its zero set
+/// where the region's grid has it (measured within 0.5 mm across the bump; before, the point
+/// field still read +7.5 mm at the grid's surface over the pole: the top was missing from the
+/// field, and its mesh and points showed a torn plateau).
 #[test]
 fn a_commit_moves_the_local_fields_with_points_a_stroke_carried_far() {
     let r = 0.05;
-    let mut scene = Scene::new();
-    let id = scene.add(fitted_object(Shape::Sphere { radius: r }, 6000, 2));
-    let params = RegionParams {
-        node: NodeParams {
-            mass: 1e-3,
-            damping: 0.5,
-            stiffness: 10.0,
-            anchor: 100.0,
-        },
-        ..RegionParams::new(0.0025, 0.008)
-    };
-    scene
-        .open_region(
-            id,
-            DVec3::new(-0.05, 0.0, -0.05),
-            DVec3::new(0.05, 0.075, 0.05),
-            params,
-        )
-        .unwrap();
-    let rope = Rope {
-        path: vec![DVec3::new(0.0, r, 0.0)],
-        radius: 0.015,
-        strength: 2.4,
-        profile: Profile::Gaussian,
-        sheet: None,
-    };
-    for _ in 0..1800 {
-        scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
-    }
-    scene.end_stroke().unwrap();
+    let mut scene = demo_ball(true, 0.075);
+    pull_up(&mut scene, r, 2.4);
+    let id = 0;
     let height = grid_height_at_pole(&scene, r);
     assert!(height > 0.006, "the rope raised {height} m");
     let field = &scene.objects()[id].field;
