@@ -218,7 +218,9 @@ fn newton_step(delta: f64, g: DVec3, h: f64) -> Option<DVec3> {
 /// Refit the local fields of `moved` points in `live` so they represent `F = f_base + Δ`:
 /// sample the base local spline plus `Δ` at the operator's grid nodes of each point's domain
 /// and apply the precomputed operator (papers' Eq. 4). Orphaned local fields (their points were
-/// removed, see [`GlobalField::swap_remove_point`]) centred inside the grid are refitted too.
+/// removed, see [`GlobalField::swap_remove_point`], or their fields moved,
+/// [`GlobalField::relocate_point`]) centred inside the grid whose domains reach a displaced node
+/// are refitted too.
 /// `samples` is reusable scratch. [`refit_samples`] then [`apply_refit`].
 pub fn refit_moved(
     base: &GlobalField,
@@ -245,17 +247,23 @@ pub fn refit_samples(
     let (size, n) = (op.size(), op.samples());
     let n3 = n * n * n;
     let spec = model.spec();
+    // Orphans accumulate (removed points, fields that moved with their points): only those
+    // whose domain reaches a displaced node are refitted, not every one inside the grid.
+    let displaced = displaced_nodes_box(model);
+    let reaches = |s: u32| {
+        let f = base.slot_frame(s as usize);
+        let r = DVec3::splat(f.half * 3f64.sqrt() + spec.spacing);
+        spec.contains(f.center)
+            && displaced.is_some_and(|(lo, hi)| {
+                (f.center + r).cmpge(lo).all() && (f.center - r).cmple(hi).all()
+            })
+    };
     let mut slots: Vec<u32> = moved
         .iter()
         .filter_map(|&i| base.slot_of(i as usize))
         .filter(|&s| base.slot_support(s) > 0.0) // outliers have no local field
         .map(|s| s as u32)
-        .chain(
-            base.orphans()
-                .iter()
-                .copied()
-                .filter(|&s| spec.contains(base.slot_frame(s as usize).center)),
-        )
+        .chain(base.orphans().iter().copied().filter(|&s| reaches(s)))
         .collect();
     slots.sort_unstable();
     slots.dedup();
@@ -281,6 +289,25 @@ pub fn refit_samples(
             }
         });
     slots
+}
+
+/// The box of the grid nodes with a nonzero displacement, `None` when none has one.
+/// O(active nodes).
+fn displaced_nodes_box(model: &DynamicGrid) -> Option<(DVec3, DVec3)> {
+    let spec = model.spec();
+    model
+        .active_nodes()
+        .iter()
+        .zip(model.displacement())
+        .filter(|&(_, &u)| u != 0.0)
+        .map(|(&g, _)| {
+            let [i, j, k] = spec.coords(g as usize);
+            spec.node_position(i, j, k)
+        })
+        .fold(None, |b, p| match b {
+            None => Some((p, p)),
+            Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
+        })
 }
 
 /// The writing half of [`refit_moved`]: refit `slots` of `live` from `samples`.
