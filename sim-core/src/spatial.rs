@@ -258,3 +258,73 @@ impl Hasher for MulHasher {
         self.0 = (v ^ (v >> 29)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every support containing `x`, by brute force, as ids.
+    fn brute(centers: &[(DVec3, f64)], x: DVec3) -> Vec<usize> {
+        let mut ids: Vec<usize> = (0..centers.len())
+            .filter(|&i| (x - centers[i].0).length_squared() < centers[i].1 * centers[i].1)
+            .collect();
+        ids.sort_unstable();
+        ids
+    }
+
+    #[test]
+    fn inserted_supports_are_found_like_built_ones_and_in_the_same_order_by_both_queries() {
+        // 200 supports on a jittered lattice, radius 0.3; then 50 inserted, some larger than any
+        // level the grid was built with (radius 2.5: a new level).
+        let mut all: Vec<(DVec3, f64)> = (0..200)
+            .map(|i| {
+                let f = i as f64;
+                (
+                    DVec3::new((f * 0.37) % 3.0, (f * 0.61) % 2.0, (f * 0.13) % 1.0),
+                    0.3,
+                )
+            })
+            .collect();
+        let (c, r): (Vec<DVec3>, Vec<f64>) = all.iter().copied().unzip();
+        let mut grid = SupportGrid::new(&c, &r, 0.6);
+        for k in 0..50 {
+            let f = k as f64;
+            let s = (
+                DVec3::new((f * 0.71) % 3.0, (f * 0.29) % 2.0, 0.5),
+                if k % 10 == 0 { 2.5 } else { 0.2 },
+            );
+            grid.insert(s.0, s.1, all.len() as u32);
+            all.push(s);
+        }
+        grid.insert(DVec3::ZERO, f64::NAN, 999); // ignored
+        for q in 0..300 {
+            let f = q as f64;
+            let x = DVec3::new(
+                (f * 0.53) % 3.2 - 0.1,
+                (f * 0.47) % 2.2 - 0.1,
+                (f * 0.19) % 1.2,
+            );
+            let mut found = Vec::new();
+            grid.for_each_containing(x, |i, rel, d2| {
+                assert!(
+                    (rel - (x - all[i].0)).length() < 1e-12
+                        && (d2 - rel.length_squared()).abs() < 1e-12
+                );
+                found.push(i);
+            });
+            let mut gathered = Vec::new();
+            grid.gather_box(x, x, &mut gathered);
+            let gathered: Vec<usize> = gathered
+                .iter()
+                .filter(|it| (x - it.center).length_squared() < it.radius2)
+                .map(|it| it.id as usize)
+                .collect();
+            assert_eq!(
+                found, gathered,
+                "the two queries meet the supports in one order at {x}"
+            );
+            found.sort_unstable();
+            assert_eq!(found, brute(&all, x), "at {x}");
+        }
+    }
+}
