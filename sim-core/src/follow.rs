@@ -249,10 +249,10 @@ pub fn refit_samples(
     let spec = model.spec();
     // Orphans accumulate (removed points, fields that moved with their points): only those
     // whose domain reaches a displaced node are refitted, not every one inside the grid.
-    let displaced = displaced_nodes_box(model);
+    let displaced = model.displaced_box(0.0);
     let reaches = |s: u32| {
         let f = base.slot_frame(s as usize);
-        let r = DVec3::splat(f.half * 3f64.sqrt() + spec.spacing);
+        let r = DVec3::splat(f.half * 3f64.sqrt());
         spec.contains(f.center)
             && displaced.is_some_and(|(lo, hi)| {
                 (f.center + r).cmpge(lo).all() && (f.center - r).cmple(hi).all()
@@ -289,25 +289,6 @@ pub fn refit_samples(
             }
         });
     slots
-}
-
-/// The box of the grid nodes with a nonzero displacement, `None` when none has one.
-/// O(active nodes).
-fn displaced_nodes_box(model: &DynamicGrid) -> Option<(DVec3, DVec3)> {
-    let spec = model.spec();
-    model
-        .active_nodes()
-        .iter()
-        .zip(model.displacement())
-        .filter(|&(_, &u)| u != 0.0)
-        .map(|(&g, _)| {
-            let [i, j, k] = spec.coords(g as usize);
-            spec.node_position(i, j, k)
-        })
-        .fold(None, |b, p| match b {
-            None => Some((p, p)),
-            Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
-        })
 }
 
 /// The writing half of [`refit_moved`]: refit `slots` of `live` from `samples`.

@@ -467,7 +467,7 @@ impl Scene {
             // Stranded points never moved, and points beside the deformation may not have
             // moved by more than ε: check every point where the field changed.
             let follower = &region.follower;
-            let changed_box = resample::displaced_box(&region.model, 0.01 * opts.spacing);
+            let changed_box = region.model.displaced_box(0.01 * opts.spacing);
             changed.extend(region.inside.iter().copied().filter(|&i| {
                 follower.is_stranded(i as usize)
                     || changed_box.is_some_and(|(lo, hi)| {

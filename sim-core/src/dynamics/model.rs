@@ -275,6 +275,32 @@ impl DynamicGrid {
         }
     }
 
+    /// The box (grown by two cells) of the simulated nodes displaced by more than `eps`;
+    /// `None` when none is. O(simulated nodes).
+    pub fn displaced_box(&self, eps: f64) -> Option<(DVec3, DVec3)> {
+        let spec = &self.spec;
+        let mut b: Option<([usize; 3], [usize; 3])> = None;
+        for (s, &g) in self.active.iter().enumerate() {
+            if self.u[s].abs() <= eps {
+                continue;
+            }
+            let c = spec.coords(g as usize);
+            b = Some(match b {
+                None => (c, c),
+                Some((lo, hi)) => (
+                    [lo[0].min(c[0]), lo[1].min(c[1]), lo[2].min(c[2])],
+                    [hi[0].max(c[0]), hi[1].max(c[1]), hi[2].max(c[2])],
+                ),
+            });
+        }
+        let (lo, hi) = b?;
+        let grow = DVec3::splat(2.0 * spec.spacing);
+        Some((
+            spec.node_position(lo[0], lo[1], lo[2]) - grow,
+            spec.node_position(hi[0], hi[1], hi[2]) + grow,
+        ))
+    }
+
     /// The trilinear interpolant of the current values `d⁰ + u` at `x` (nodes outside the band
     /// at their rest values); `None` outside the grid.
     pub fn value_at(&self, x: DVec3) -> Option<f64> {
@@ -385,7 +411,7 @@ impl DynamicGrid {
             let v = self.rest[g] + self.u[s];
             self.nbr[s]
                 .iter()
-                .zip(self.axis_neighbours_all(g))
+                .zip(axis_neighbours(&self.spec, g))
                 .any(|(&n, h)| match n {
                     FIXED => h.is_some_and(|h| (self.rest[h] > 0.0) != (v > 0.0)),
                     ABSENT => {
@@ -398,24 +424,9 @@ impl DynamicGrid {
         })
     }
 
-    /// The grid indices of node `g`'s six axis neighbours in [`Self::neighbours_of`]'s order
-    /// (−x, +x, −y, +y, −z, +z), `None` outside the grid.
-    fn axis_neighbours_all(&self, g: usize) -> [Option<usize>; 6] {
-        let spec = self.spec;
-        let [i, j, k] = spec.coords(g);
-        [
-            (i > 0).then(|| spec.index(i - 1, j, k)),
-            (i + 1 < spec.dims[0]).then(|| spec.index(i + 1, j, k)),
-            (j > 0).then(|| spec.index(i, j - 1, k)),
-            (j + 1 < spec.dims[1]).then(|| spec.index(i, j + 1, k)),
-            (k > 0).then(|| spec.index(i, j, k - 1)),
-            (k + 1 < spec.dims[2]).then(|| spec.index(i, j, k + 1)),
-        ]
-    }
-
     /// The grid indices of node `g`'s axis neighbours inside the grid.
     fn axis_neighbours(&self, g: usize) -> impl Iterator<Item = usize> + use<> {
-        self.axis_neighbours_all(g).into_iter().flatten()
+        axis_neighbours(&self.spec, g).into_iter().flatten()
     }
 
     /// Parameters of slot `s`.
@@ -517,21 +528,24 @@ fn edge_slots(nbr: &[[u32; 6]]) -> Vec<u32> {
         .collect()
 }
 
-fn neighbours(spec: &GridSpec, slot_of: &[u32], g: usize) -> [u32; 6] {
+/// The grid indices of node `g`'s six axis neighbours (−x, +x, −y, +y, −z, +z: the order of
+/// [`DynamicGrid::neighbours_of`]), `None` outside the grid.
+fn axis_neighbours(spec: &GridSpec, g: usize) -> [Option<usize>; 6] {
     let [i, j, k] = spec.coords(g);
-    let c = [i, j, k];
-    let mut out = [ABSENT; 6];
-    for axis in 0..3 {
-        for (side, delta) in [(0usize, -1isize), (1, 1)] {
-            let n = c[axis] as isize + delta;
-            if n < 0 || n as usize >= spec.dims[axis] {
-                continue;
-            }
-            let mut q = c;
-            q[axis] = n as usize;
-            let s = slot_of[spec.index(q[0], q[1], q[2])];
-            out[2 * axis + side] = if s == INACTIVE { FIXED } else { s };
-        }
-    }
-    out
+    [
+        (i > 0).then(|| spec.index(i - 1, j, k)),
+        (i + 1 < spec.dims[0]).then(|| spec.index(i + 1, j, k)),
+        (j > 0).then(|| spec.index(i, j - 1, k)),
+        (j + 1 < spec.dims[1]).then(|| spec.index(i, j + 1, k)),
+        (k > 0).then(|| spec.index(i, j, k - 1)),
+        (k + 1 < spec.dims[2]).then(|| spec.index(i, j, k + 1)),
+    ]
+}
+
+fn neighbours(spec: &GridSpec, slot_of: &[u32], g: usize) -> [u32; 6] {
+    axis_neighbours(spec, g).map(|h| match h {
+        None => ABSENT,
+        Some(h) if slot_of[h] == INACTIVE => FIXED,
+        Some(h) => slot_of[h],
+    })
 }

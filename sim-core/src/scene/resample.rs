@@ -125,28 +125,25 @@ pub(super) fn off_surface(
         None => field.value_and_gradient(x),
     };
     // Each point's projection reads only the field: in parallel, applied in order below.
-    let outcome: Vec<Option<Option<(DVec3, DVec3)>>> = which
+    let outcome: Vec<Settled> = which
         .par_iter()
         .with_min_len(64)
         .map(|&i| {
             let p = obj.positions[i as usize];
             let (f, _) = eval(p);
             if f.abs() <= tol && !follower.is_stranded(i as usize) {
-                return None;
+                return Settled::On(None);
             }
-            Some(match project(&eval, p, tol, h) {
-                Some((q, n)) if q.distance(p) <= MAX_PROJECTION * h => Some((q, n)),
-                _ => None,
-            })
+            settle(&eval, p, tol, h)
         })
         .collect();
     let mut removed = Vec::new();
     let mut moves = Vec::new();
     for (&i, o) in which.iter().zip(outcome) {
         match o {
-            None => {}
-            Some(Some((q, n))) => moves.push((i, q, n)),
-            Some(None) => removed.push(i),
+            Settled::On(_) => {}
+            Settled::Projected(q, n) => moves.push((i, q, n)),
+            Settled::Off => removed.push(i),
         }
     }
     report.candidates += which.len();
@@ -250,10 +247,7 @@ pub(super) fn even_out(
                 if f.abs() <= tol {
                     return Settled::On(g.try_normalize());
                 }
-                match project(&eval, p, tol, h) {
-                    Some((q, n)) if q.distance(p) <= MAX_PROJECTION * h => Settled::Projected(q, n),
-                    _ => Settled::Off,
-                }
+                settle(&eval, p, tol, h)
             })
             .collect()
     };
@@ -415,6 +409,15 @@ enum Settled {
     Off,
 }
 
+/// A point off the zero set of `eval`: projected onto it, or off for good when the projection
+/// fails or lands more than [`MAX_PROJECTION`] spacings away.
+fn settle(eval: &dyn Fn(DVec3) -> (f64, DVec3), p: DVec3, tol: f64, h: f64) -> Settled {
+    match project(eval, p, tol, h) {
+        Some((q, n)) if q.distance(p) <= MAX_PROJECTION * h => Settled::Projected(q, n),
+        _ => Settled::Off,
+    }
+}
+
 /// Accepted insertions hashed by cells of the exclusion distance `d`, so a proposal is tested
 /// against the accepted ones within `d` only (was every accepted one: quadratic in a pass's
 /// insertions, tens of thousands at 10⁶ points).
@@ -456,31 +459,4 @@ impl NearGrid {
         let c = self.cell(q);
         self.cells.entry(c).or_default().push(k);
     }
-}
-
-/// The box (grown by two cells) of the active nodes displaced by more than `eps`; `None` when
-/// none is. O(active nodes).
-pub(super) fn displaced_box(model: &DynamicGrid, eps: f64) -> Option<(DVec3, DVec3)> {
-    let spec = model.spec();
-    let u = model.displacement();
-    let mut b: Option<([usize; 3], [usize; 3])> = None;
-    for (s, &g) in model.active_nodes().iter().enumerate() {
-        if u[s].abs() <= eps {
-            continue;
-        }
-        let c = spec.coords(g as usize);
-        b = Some(match b {
-            None => (c, c),
-            Some((lo, hi)) => (
-                [lo[0].min(c[0]), lo[1].min(c[1]), lo[2].min(c[2])],
-                [hi[0].max(c[0]), hi[1].max(c[1]), hi[2].max(c[2])],
-            ),
-        });
-    }
-    let (lo, hi) = b?;
-    let grow = DVec3::splat(2.0 * spec.spacing);
-    Some((
-        spec.node_position(lo[0], lo[1], lo[2]) - grow,
-        spec.node_position(hi[0], hi[1], hi[2]) + grow,
-    ))
 }

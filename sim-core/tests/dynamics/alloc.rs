@@ -93,7 +93,9 @@ fn steps_tools_and_publishing_allocate_nothing_after_warm_up() {
 fn a_commit_allocates_for_the_region_not_the_object() {
     use sim_core::pointset::PointSet;
     use sim_core::sampling::Shape;
-    use sim_core::scene::{RegionParams, ResampleOptions, Scene, SceneObject};
+    use sim_core::scene::{Scene, SceneObject};
+
+    use crate::resample::{open_cap, pull_bump};
 
     let sphere = Shape::Sphere { radius: 0.05 };
     let commit_bytes = |copies: usize| {
@@ -113,35 +115,8 @@ fn a_commit_allocates_for_the_region_not_the_object() {
         let h = sim_core::resample::spacing(&object.positions[..6000]);
         let mut scene = Scene::new();
         let id = scene.add(object);
-        let params = RegionParams {
-            node: NodeParams {
-                mass: 1e-3,
-                damping: 0.5,
-                stiffness: 1.0,
-                anchor: 100.0,
-            },
-            integrator: Integrator::backward_euler(),
-            resample: Some(ResampleOptions::new(h)),
-            ..RegionParams::new(0.002, 0.02)
-        };
-        scene
-            .open_region(
-                id,
-                DVec3::new(-0.045, -0.045, 0.005),
-                DVec3::new(0.045, 0.045, 0.085),
-                params,
-            )
-            .unwrap();
-        let rope = Rope {
-            path: vec![DVec3::new(0.0, 0.0, 0.05)],
-            radius: 0.012,
-            strength: 1.5,
-            profile: Profile::Gaussian,
-            sheet: None,
-        };
-        for _ in 0..300 {
-            scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
-        }
+        open_cap(&mut scene, id, h, true);
+        pull_bump(&mut scene);
         let before = allocated_bytes();
         scene.end_stroke().unwrap();
         let bytes = allocated_bytes() - before;

@@ -21,6 +21,13 @@ fn scene(resample: bool) -> (Scene, f64) {
     let mut scene = Scene::new();
     let id = scene.add(fitted_object(Shape::Sphere { radius: R }, 6000, 5));
     let h = spacing(&scene.objects()[id].positions);
+    open_cap(&mut scene, id, h, resample);
+    (scene, h)
+}
+
+/// Open a region over the cap of the 5 cm sphere centred at the origin in object `id` (2 mm
+/// grid, 20 mm band, stiff anchors, backward Euler), resampling at spacing `h` if asked.
+pub(crate) fn open_cap(scene: &mut Scene, id: usize, h: f64, resample: bool) {
     let params = RegionParams {
         node: NodeParams {
             mass: 1e-3,
@@ -40,12 +47,11 @@ fn scene(resample: bool) -> (Scene, f64) {
             params,
         )
         .unwrap();
-    (scene, h)
 }
 
-/// A 15 mm tall, 12 mm wide Gaussian bump pulled at the pole and committed.
-fn pulled(resample: bool) -> (Scene, f64) {
-    let (mut scene, h) = scene(resample);
+/// 300 steps of a rope pulling a 15 mm tall, 12 mm wide Gaussian bump at the pole (not yet
+/// committed).
+pub(crate) fn pull_bump(scene: &mut Scene) {
     let rope = Rope {
         path: vec![POLE],
         radius: 0.012,
@@ -56,6 +62,12 @@ fn pulled(resample: bool) -> (Scene, f64) {
     for _ in 0..300 {
         scene.step(1e-3, std::slice::from_ref(&rope)).unwrap();
     }
+}
+
+/// A 15 mm tall, 12 mm wide Gaussian bump pulled at the pole and committed.
+fn pulled(resample: bool) -> (Scene, f64) {
+    let (mut scene, h) = scene(resample);
+    pull_bump(&mut scene);
     scene.end_stroke().unwrap();
     (scene, h)
 }
