@@ -15,7 +15,8 @@ use tokio::sync::watch;
 use crate::clock::MonoClock;
 use crate::device::Device;
 use crate::servo::driver::{self, CursorSink, DriverConfig, ServoThreads};
-use crate::servo::rt::{self, RtRequest};
+use crate::servo::hot_socket::HotSocket;
+use crate::servo::rt::RtRequest;
 use crate::servo::{SafetyParams, ServoParams};
 use crate::telemetry::ServoStats;
 use crate::tls::{self, AuthorizedClients, Identity};
@@ -107,8 +108,6 @@ pub struct Server {
     servo: ServoThreads,
     sender_stop: Arc<AtomicBool>,
     sender: Option<std::thread::JoinHandle<()>>,
-    /// The UDP hot-path receiver thread.
-    receiver: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Server {
@@ -121,12 +120,11 @@ impl Server {
         let mut driver_cfg = opts.driver.clone();
         driver_cfg.params = driver_cfg.params.limited_to(&info);
         let params = driver_cfg.params;
-        // The UDP receiver runs just below the servo (see `rt::raise_hot_path_thread`). QUIC's
-        // receiving is quinn's whole endpoint driver (decryption, acknowledgements, timers) on
-        // the network worker: raised too, with the QUIC sender, it took the cores from the
-        // workstation's force thread in the one-machine demo (next tick 71-93 % against
-        // 84-92 % without), so both stay ordinary threads.
-        let hot_priority = rt::hot_path_priority(driver_cfg.rt.fifo_priority);
+        // The servo thread reads the UDP hot path itself. QUIC's receiving is quinn's whole
+        // endpoint driver (decryption, acknowledgements, timers) on the network worker: raised
+        // to SCHED_FIFO, with the QUIC sender, it took the cores from the workstation's force
+        // thread in the one-machine demo (next tick 71-93 % against 84-92 % without), so both
+        // stay ordinary threads.
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .thread_name("network")
@@ -136,11 +134,11 @@ impl Server {
         let clock = MonoClock::new();
         let (shutdown, shutdown_rx) = watch::channel(false);
         let sender_stop = Arc::new(AtomicBool::new(false));
-        let (local_addr, shared, servo, sender, receiver) = match opts.transport {
+        let (local_addr, shared, servo, sender) = match opts.transport {
             TransportKind::Udp => {
                 let (tcp, sock) = udp::bind(opts.listen)?;
                 let local_addr = tcp.local_addr()?;
-                let sink = CursorSink::Udp(sock.try_clone()?);
+                let sink = CursorSink::Udp(Box::new(HotSocket::new(sock)?));
                 let (link, servo) = driver::spawn(device, sink, driver_cfg, clock)?;
                 let shared = Arc::new(Shared::new(
                     clock,
@@ -151,15 +149,9 @@ impl Server {
                     opts.net,
                     opts.authorized.clone(),
                 ));
-                let receiver = udp::spawn_receiver(
-                    Arc::clone(&shared),
-                    sock,
-                    shutdown_rx.clone(),
-                    hot_priority,
-                )?;
                 let _guard = runtime.enter();
                 runtime.spawn(udp::run(Arc::clone(&shared), tcp, tls_cfg, shutdown_rx));
-                (local_addr, shared, servo, None, Some(receiver))
+                (local_addr, shared, servo, None)
             }
             TransportKind::Quic => {
                 let endpoint = {
@@ -192,7 +184,7 @@ impl Server {
                     current,
                     shutdown_rx,
                 ));
-                (local_addr, shared, servo, Some(sender), None)
+                (local_addr, shared, servo, Some(sender))
             }
         };
         // The runtime lives on a thread of its own, so a server can be dropped anywhere
@@ -216,7 +208,6 @@ impl Server {
             servo,
             sender_stop,
             sender,
-            receiver,
         })
     }
 
@@ -282,9 +273,6 @@ impl Server {
         let _ = self.shutdown.send(true);
         if let Some(rt) = self.runtime.take() {
             let _ = rt.join();
-        }
-        if let Some(r) = self.receiver.take() {
-            let _ = r.join();
         }
         self.servo.stop();
         self.sender_stop.store(true, Ordering::Release);

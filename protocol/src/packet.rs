@@ -111,7 +111,7 @@ pub enum Body {
 }
 
 /// The device state at one servo tick, in the device frame (m, m/s, N).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct CursorSample {
     /// Stylus tip position, m.
     pub position: Vec3,

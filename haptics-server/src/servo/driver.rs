@@ -1,7 +1,9 @@
 //! The driver thread: the only place the servo loop meets time, the device and the network.
 //!
 //! Per period: wait for the absolute deadline ([`rt::wait_until`]: sleep, then a short spin),
-//! drain the session-event and force-command rings (wait-free `rtrb` pops), read the device,
+//! drain the session-event ring, then the force commands: on UDP straight from the socket
+//! ([`HotSocket::drain`]: non-blocking reads, kernel arrival stamps, no receiver thread in
+//! between), on QUIC from the ring its receiver fills (wait-free `rtrb` pops); read the device,
 //! [`ServoCore::tick`], publish the cursor unless the perceptual deadband holds it back
 //! ([`CursorDeadband`], off by default; then one non-blocking `send_to` for UDP, or a ring push
 //! plus an `unpark` of the QUIC sender thread), write the force, push a [`TickRecord`] to the
@@ -10,7 +12,6 @@
 //! A tick that starts more than one period late is an overrun; missed deadlines are skipped,
 //! not made up in a burst.
 
-use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -22,24 +23,23 @@ use protocol::packet::MAX_PACKET_BYTES;
 use protocol::{Body, CursorDeadband, ForceCommand, Outbound, SessionKey};
 
 use super::core::{ServoCore, ServoParams, SessionEvent};
+use super::hot_socket::HotSocket;
 use super::rt::{self, RtReport, RtRequest};
 use crate::clock::MonoClock;
 use crate::device::{Device, DeviceSample};
-use crate::telemetry::{self, ServoStats, Telemetry, TickRecord, record::Recorder};
+use crate::telemetry::{self, HotTick, ServoStats, Telemetry, TickRecord, record::Recorder};
 
 /// A message from the network side to the servo thread.
 #[derive(Debug, Clone)]
 pub enum ServoMsg {
     /// A session started: arm the output, number cursor packets for `session` (MAC'd with
-    /// `key` when `Some`, i.e. UDP).
+    /// `key` when `Some`, i.e. UDP, whose packets the servo thread then checks itself).
     Start {
         /// Session id from `Welcome`.
         session: u32,
         /// The hot-path key (UDP only).
         key: Option<SessionKey>,
     },
-    /// Where to send cursor packets (UDP: learned from the client's first authentic packet).
-    Peer(SocketAddr),
     /// A settings or emergency-stop event for the core.
     Core(SessionEvent),
     /// The session ended.
@@ -60,8 +60,8 @@ pub struct Datagram {
 pub enum CursorSink {
     /// Nowhere (loop-bench, tests of the loop alone).
     None,
-    /// A non-blocking UDP socket (shared with the receiver).
-    Udp(UdpSocket),
+    /// The UDP hot-path socket, read and written by the servo thread alone.
+    Udp(Box<HotSocket>),
     /// A ring drained by a sender thread, which is unparked after each push.
     Ring(rtrb::Producer<Datagram>, std::thread::Thread),
 }
@@ -69,7 +69,8 @@ pub enum CursorSink {
 /// The network side's handle on the servo thread.
 #[derive(Debug)]
 pub struct ServoLink {
-    /// Validated force commands with their header sequence and arrival time (server clock, ns).
+    /// Validated force commands with their header sequence and arrival time (server clock,
+    /// ns), from a receiver thread (QUIC; UDP commands never pass here).
     pub commands: rtrb::Producer<(ForceCommand, u32, u64)>,
     /// Session events.
     pub events: rtrb::Producer<ServoMsg>,
@@ -132,7 +133,8 @@ pub fn spawn<D: Device + 'static>(
 ) -> std::io::Result<(ServoLink, ServoThreads)> {
     let (commands, command_rx) = rtrb::RingBuffer::new(256);
     let (events, event_rx) = rtrb::RingBuffer::new(64);
-    let (record_tx, record_rx) = rtrb::RingBuffer::new(16_384);
+    let (mut record_tx, mut record_rx) = rtrb::RingBuffer::new(16_384);
+    prefault(&mut record_tx, &mut record_rx);
     let stats = Arc::new(Mutex::new(ServoStats::default()));
     let stop = Arc::new(AtomicBool::new(false));
     let dropped = Arc::new(AtomicU64::new(0));
@@ -179,7 +181,6 @@ pub fn spawn<D: Device + 'static>(
                     core: ServoCore::new(cfg.params),
                     sink,
                     outbound: None,
-                    peer: None,
                     command_rx,
                     event_rx,
                     record_tx,
@@ -210,11 +211,19 @@ pub fn spawn<D: Device + 'static>(
     ))
 }
 
+/// Write every slot of the telemetry ring once, so its pages are resident from the start:
+/// otherwise the servo thread's first lap around it (16 s at 1 kHz) touches a new page every
+/// few ticks, a page fault in the 1 kHz path and resident memory that seems to grow.
+fn prefault(tx: &mut rtrb::Producer<TickRecord>, rx: &mut rtrb::Consumer<TickRecord>) {
+    let blank = TickRecord::default();
+    while tx.push(blank).is_ok() {}
+    while rx.pop().is_ok() {}
+}
+
 struct Loop {
     core: ServoCore,
     sink: CursorSink,
     outbound: Option<Outbound>,
-    peer: Option<SocketAddr>,
     command_rx: rtrb::Consumer<(ForceCommand, u32, u64)>,
     event_rx: rtrb::Consumer<ServoMsg>,
     record_tx: rtrb::Producer<TickRecord>,
@@ -291,20 +300,30 @@ impl Loop {
         while let Ok(msg) = self.event_rx.pop() {
             match msg {
                 ServoMsg::Start { session, key } => {
+                    if let CursorSink::Udp(socket) = &mut self.sink {
+                        socket.start(session, key.clone(), now_ns);
+                    }
                     self.outbound = Some(Outbound::new(session, key));
                     self.deadband.reset();
-                    self.peer = None;
                     self.core.on_event(now_ns, SessionEvent::Start);
                 }
-                ServoMsg::Peer(addr) => self.peer = Some(addr),
                 ServoMsg::Core(ev) => self.core.on_event(now_ns, ev),
                 ServoMsg::End => {
+                    if let CursorSink::Udp(socket) = &mut self.sink {
+                        socket.end();
+                    }
                     self.outbound = None;
-                    self.peer = None;
                     self.core.on_event(now_ns, SessionEvent::End);
                 }
             }
         }
+        let core = &mut self.core;
+        let hot = match &mut self.sink {
+            CursorSink::Udp(socket) => socket.drain(&self.clock, |cmd, sequence, arrived| {
+                core.on_command_packet(arrived, sequence, cmd);
+            }),
+            _ => HotTick::default(),
+        };
         while let Ok((cmd, sequence, arrived)) = self.command_rx.pop() {
             self.core.on_command_packet(arrived, sequence, cmd);
         }
@@ -314,7 +333,6 @@ impl Loop {
             Err(_) => device_error = true,
         }
         let out = self.core.tick(now_ns, &self.last_sample);
-        let sent = self.publish(now_ns, &out.cursor);
         let force = if out.safety.force.is_finite() {
             out.safety.force
         } else {
@@ -323,6 +341,9 @@ impl Loop {
         if device.write_force(force).is_err() {
             device_error = true;
         }
+        // The cursor goes out last, just before the thread sleeps: the workstation's thread
+        // it wakes can then run on this core at once instead of waking an idle one.
+        let sent = self.publish(now_ns, &out.cursor);
         TickRecord {
             now_ns,
             lateness_ns: 0,
@@ -335,6 +356,7 @@ impl Loop {
             nonfinite: out.safety.nonfinite,
             device_error,
             cursor: out.cursor,
+            hot,
         }
     }
 
@@ -350,11 +372,11 @@ impl Loop {
         match &mut self.sink {
             CursorSink::None => false,
             CursorSink::Udp(socket) => {
-                let Some(peer) = self.peer else {
+                if socket.peer.is_none() {
                     return false;
-                };
+                }
                 let len = outbound.encode(now_ns, Body::Cursor(*cursor), &mut self.buf);
-                socket.send_to(&self.buf[..len], peer).is_ok()
+                socket.send(&self.buf[..len])
             }
             CursorSink::Ring(producer, waker) => {
                 let mut d = Datagram {
@@ -397,7 +419,6 @@ mod tests {
             core: ServoCore::new(params),
             sink: CursorSink::Ring(tx, std::thread::current()),
             outbound: None,
-            peer: None,
             command_rx,
             event_rx,
             record_tx,

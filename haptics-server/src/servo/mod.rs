@@ -1,8 +1,10 @@
 //! The servo loop: a deterministic core ([`ServoCore`], [`safety`]) and a thin driver thread
-//! ([`driver`]) with its real-time setup ([`rt`]).
+//! ([`driver`]) with its real-time setup ([`rt`]) and, on UDP, the hot-path socket it drains
+//! itself ([`hot_socket`]).
 
 pub mod core;
 pub mod driver;
+pub mod hot_socket;
 pub mod passivity;
 pub mod rt;
 pub mod safety;

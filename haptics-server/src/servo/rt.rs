@@ -66,26 +66,6 @@ pub fn setup_current_thread(req: RtRequest) -> RtReport {
     report
 }
 
-/// Give a thread on the hot path (the UDP receiver) `SCHED_FIFO` at `priority`, so a command
-/// crossing it is not left waiting for the fair scheduler's turn when ordinary threads keep the
-/// cores busy. `None`: nothing; refused: a warning naming `who`, and the thread runs as it is.
-pub fn raise_hot_path_thread(priority: Option<i32>, who: &str) {
-    let report = setup_current_thread(RtRequest {
-        fifo_priority: priority,
-        cpu: None,
-        mlockall: false,
-    });
-    for w in &report.warnings {
-        tracing::warn!("{who}: {w}");
-    }
-}
-
-/// The hot-path threads' priority for a servo thread at `servo`: one below it, so the servo
-/// still preempts them and they preempt everything ordinary.
-pub fn hot_path_priority(servo: Option<i32>) -> Option<i32> {
-    servo.map(|p| (p - 1).max(1))
-}
-
 #[cfg(target_os = "linux")]
 fn set_fifo(priority: i32) -> std::io::Result<()> {
     let param = libc::sched_param {

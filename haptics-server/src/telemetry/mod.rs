@@ -13,11 +13,11 @@ use std::time::Duration;
 
 use glam::Vec3;
 use hdrhistogram::Histogram;
-use protocol::CursorSample;
 use protocol::control::Percentiles;
+use protocol::{CursorSample, RejectCounts, SequenceStats};
 
 /// One tick, as the servo thread saw it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct TickRecord {
     /// Tick start, server clock, ns.
     pub now_ns: u64,
@@ -41,6 +41,58 @@ pub struct TickRecord {
     pub device_error: bool,
     /// The published cursor (its `output_force` is the force written).
     pub cursor: CursorSample,
+    /// What the servo's own hot-path socket did (UDP; all default on other transports).
+    pub hot: HotTick,
+}
+
+/// The UDP hot path as the servo thread drained it on one tick
+/// ([`crate::servo::hot_socket::HotSocket`]): this tick's events and the session's running
+/// counts.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct HotTick {
+    /// The session whose packets are accepted (`None` between sessions).
+    pub session: Option<u32>,
+    /// Authentic packets of this session so far.
+    pub packets_in: u64,
+    /// Arrival of the newest authentic packet (server clock, ns).
+    pub last_activity_ns: u64,
+    /// Rejections of this session so far, by reason.
+    pub rejected: RejectCounts,
+    /// Loss and reordering of this session's accepted packets.
+    pub force_sequence: SequenceStats,
+    /// Packets that arrived with no session, since the server started.
+    pub unsolicited: u64,
+    /// Datagrams read on this tick.
+    pub drained: u32,
+    /// The drain stopped at its per-tick cap with more queued.
+    pub capped: bool,
+    /// Cursor → arrival round trip of the command applied on this tick, ns (0: none).
+    pub applied_rtt_ns: u64,
+    /// The client's hot-path address.
+    pub peer: Option<std::net::SocketAddr>,
+    /// The address changed on this tick.
+    pub peer_changed: bool,
+}
+
+/// The UDP hot path's numbers for `Stats`, from the servo thread's [`HotTick`]s.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct HotPathStats {
+    /// The session they belong to (`None`: no session yet, or not the UDP transport).
+    pub session: Option<u32>,
+    /// Authentic packets of the session.
+    pub packets_in: u64,
+    /// Arrival of the newest authentic packet (server clock, ns).
+    pub last_activity_ns: u64,
+    /// Rejections of the session, by reason.
+    pub rejected: RejectCounts,
+    /// Loss and reordering of the session's accepted packets.
+    pub force_sequence: SequenceStats,
+    /// Cursor → arrival round trips of the session's applied commands.
+    pub force_rtt_ns: Percentiles,
+    /// Packets that arrived with no session, since the server started.
+    pub unsolicited: u64,
+    /// Ticks whose drain hit its cap (a flood), since the server started.
+    pub capped_ticks: u64,
 }
 
 /// Servo-side numbers for `Stats` and logs.
@@ -77,6 +129,8 @@ pub struct ServoStats {
     pub engaged: bool,
     /// The last force written, N.
     pub last_force: Vec3,
+    /// The UDP hot path, read by the servo thread itself.
+    pub hot: HotPathStats,
 }
 
 fn histogram() -> Histogram<u64> {
@@ -103,6 +157,7 @@ pub struct Telemetry {
     window_cost: Histogram<u64>,
     window_lateness: Histogram<u64>,
     marked_lateness: Histogram<u64>,
+    force_rtt: Histogram<u64>,
     stats: ServoStats,
     first_ns: Option<u64>,
     recorder: Option<record::Recorder>,
@@ -118,6 +173,7 @@ impl Telemetry {
             window_cost: histogram(),
             window_lateness: histogram(),
             marked_lateness: histogram(),
+            force_rtt: histogram(),
             stats: ServoStats::default(),
             first_ns: None,
             recorder,
@@ -147,6 +203,7 @@ impl Telemetry {
         let _ = self.window_cost.record(clamp(r.cost_ns));
         let _ = self.window_lateness.record(clamp(r.lateness_ns));
         let _ = self.marked_lateness.record(clamp(r.lateness_ns));
+        self.add_hot(&r.hot);
         if let Some(rec) = &mut self.recorder
             && let Err(e) = rec.write(r)
         {
@@ -155,8 +212,33 @@ impl Telemetry {
         }
     }
 
+    fn add_hot(&mut self, h: &HotTick) {
+        let s = &mut self.stats.hot;
+        if h.session != s.session {
+            self.force_rtt.reset();
+        }
+        if h.peer_changed
+            && let Some(peer) = h.peer
+        {
+            tracing::info!(%peer, "hot path: streaming cursor samples to the workstation");
+        }
+        if h.applied_rtt_ns > 0 {
+            let _ = self
+                .force_rtt
+                .record(h.applied_rtt_ns.clamp(1, 10_000_000_000));
+        }
+        s.session = h.session;
+        s.packets_in = h.packets_in;
+        s.last_activity_ns = h.last_activity_ns;
+        s.rejected = h.rejected;
+        s.force_sequence = h.force_sequence;
+        s.unsolicited = h.unsolicited;
+        s.capped_ticks += u64::from(h.capped);
+    }
+
     /// The current snapshot.
     pub fn snapshot(&mut self, dropped_records: u64) -> ServoStats {
+        self.stats.hot.force_rtt_ns = percentiles(&self.force_rtt);
         self.stats.period_ns = percentiles(&self.period);
         self.stats.tick_cost_ns = percentiles(&self.cost);
         self.stats.lateness_ns = percentiles(&self.lateness);

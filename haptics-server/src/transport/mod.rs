@@ -10,8 +10,9 @@
 //! or when nothing authentic arrived for `idle_timeout` (the workstation vanished). Ending
 //! sends [`ServoMsg::End`] (output falls to zero) and frees the slot for the next client.
 //! Hot-path packets pass [`protocol::Inbound`] (MAC on UDP, session, replay window, ranges);
-//! only accepted `ForceCommand`s reach the servo ring (not one that arrived after a newer one),
-//! rejects are counted by reason.
+//! only accepted `ForceCommand`s reach the servo (not one that arrived after a newer one),
+//! rejects are counted by reason. On UDP the servo thread reads and checks the socket itself
+//! ([`crate::servo::hot_socket`]); on QUIC [`Shared::accept_hot`] does, on quinn's side.
 
 pub mod quic;
 pub mod session;
@@ -55,7 +56,9 @@ impl Default for NetSettings {
 
 pub use haptics_client::framing::TransportError;
 
-/// One session's hot-path state, shared by the control task and the packet receiver.
+/// One session's hot-path state, shared by the control task and the packet receiver (QUIC;
+/// on UDP the servo thread keeps the inbound state and only `last_activity_ns` of control
+/// messages is used here).
 #[derive(Debug)]
 pub struct HotState {
     /// The session id.
@@ -64,7 +67,6 @@ pub struct HotState {
     packets_in: AtomicU64,
     last_activity_ns: AtomicU64,
     ended: AtomicBool,
-    peer: Mutex<Option<std::net::SocketAddr>>,
     /// Cursor → force round trips of applied commands, ns (see `Stats::force_rtt_ns`).
     force_rtt: Mutex<Histogram<u64>>,
 }
@@ -89,8 +91,6 @@ pub struct Shared {
     pub sessions_started: AtomicU64,
     /// Clients refused because a session was active.
     pub refused_busy: AtomicU64,
-    /// Hot-path packets that arrived with no session active.
-    pub unsolicited: AtomicU64,
     /// The client certificates that may open a session.
     pub authorized: crate::tls::AuthorizedClients,
     /// Clients refused because they presented no authorized certificate.
@@ -119,7 +119,6 @@ impl Shared {
             last_stats: Mutex::new(Stats::default()),
             sessions_started: AtomicU64::new(0),
             refused_busy: AtomicU64::new(0),
-            unsolicited: AtomicU64::new(0),
             authorized,
             refused_unauthenticated: AtomicU64::new(0),
         }
@@ -192,44 +191,65 @@ impl Shared {
         }
     }
 
-    /// `Stats` of `hot` (or the last session's, when `None`).
+    /// `Stats` of `hot` (or the last session's, when `None`). On UDP the servo thread checks
+    /// the hot path itself and its telemetry carries the counts; on QUIC they are `hot`'s.
     pub fn stats(&self, hot: Option<&HotState>) -> Stats {
         let Some(hot) = hot else {
             return self.last_stats.lock().map(|s| *s).unwrap_or_default();
         };
-        let servo: ServoStats = self
-            .link
-            .lock()
-            .ok()
-            .and_then(|l| l.stats.lock().ok().map(|s| *s))
-            .unwrap_or_default();
-        let (rejected, force_sequence) = match hot.inbound.lock() {
-            Ok(i) => (*i.rejects(), i.sequence_stats()),
-            Err(_) => Default::default(),
-        };
+        let servo = self.servo_stats();
+        let (packets_in, rejected, force_sequence, force_rtt_ns) =
+            if servo.hot.session == Some(hot.session) {
+                let h = &servo.hot;
+                (h.packets_in, h.rejected, h.force_sequence, h.force_rtt_ns)
+            } else {
+                let (rejected, force_sequence) = match hot.inbound.lock() {
+                    Ok(i) => (*i.rejects(), i.sequence_stats()),
+                    Err(_) => Default::default(),
+                };
+                let rtt = hot
+                    .force_rtt
+                    .lock()
+                    .map(|h| crate::telemetry::percentiles(&h))
+                    .unwrap_or_default();
+                (
+                    hot.packets_in.load(Ordering::Relaxed),
+                    rejected,
+                    force_sequence,
+                    rtt,
+                )
+            };
         let stats = Stats {
             uptime_ns: servo.uptime_ns,
             ticks: servo.ticks,
             overruns: servo.overruns,
             period_ns: servo.period_ns,
             tick_cost_ns: servo.tick_cost_ns,
-            packets_in: hot.packets_in.load(Ordering::Relaxed),
+            packets_in,
             packets_out: servo.packets_out,
             rejected,
             force_sequence,
             clamped_ticks: servo.clamped_ticks,
             watchdog_fades: servo.watchdog_fades,
             engaged: servo.engaged,
-            force_rtt_ns: hot
-                .force_rtt
-                .lock()
-                .map(|h| crate::telemetry::percentiles(&h))
-                .unwrap_or_default(),
+            force_rtt_ns,
         };
         if let Ok(mut last) = self.last_stats.lock() {
             *last = stats;
         }
         stats
+    }
+
+    /// When the workstation was last heard from in session `hot`: a control message, or an
+    /// authentic hot-path packet (UDP: as the servo thread's telemetry last reported it).
+    pub fn last_activity_ns(&self, hot: &HotState) -> u64 {
+        let control = hot.last_activity_ns.load(Ordering::Acquire);
+        let servo = self.servo_stats().hot;
+        if servo.session == Some(hot.session) {
+            control.max(servo.last_activity_ns)
+        } else {
+            control
+        }
     }
 
     /// Start a new telemetry mark window (see `ServoStats::lateness_since_mark_ns`).
@@ -262,7 +282,6 @@ impl Shared {
             packets_in: AtomicU64::new(0),
             last_activity_ns: AtomicU64::new(self.clock.now_ns()),
             ended: AtomicBool::new(false),
-            peer: Mutex::new(None),
             force_rtt: Mutex::new(rtt_histogram()),
         });
         *active = Some(Arc::clone(&hot));
@@ -290,17 +309,6 @@ impl HotState {
     /// The session has ended.
     pub fn ended(&self) -> bool {
         self.ended.load(Ordering::Acquire)
-    }
-
-    /// Record `addr` as the client's hot-path address; `true` if it changed.
-    pub fn set_peer(&self, addr: std::net::SocketAddr) -> bool {
-        match self.peer.lock() {
-            Ok(mut p) if *p != Some(addr) => {
-                *p = Some(addr);
-                true
-            }
-            _ => false,
-        }
     }
 }
 

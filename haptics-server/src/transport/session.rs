@@ -215,7 +215,7 @@ where
                 dec.push(&buf[..n]);
             }
             _ = check.tick() => {
-                let idle = shared.clock.now_ns().saturating_sub(hot.last_activity_ns.load(Ordering::Acquire));
+                let idle = shared.clock.now_ns().saturating_sub(shared.last_activity_ns(hot));
                 if idle > u64::try_from(shared.net.idle_timeout.as_nanos()).unwrap_or(u64::MAX) {
                     let reason = format!("idle timeout: nothing from the workstation for {} ms", idle / 1_000_000);
                     let bye = Control::Bye(protocol::control::Bye { reason: reason.clone() });
