@@ -54,6 +54,10 @@ pub struct BenchViewArgs {
     /// Draw every prepared frame headless (wgpu; lavapipe without a GPU) and time it.
     #[arg(long)]
     pub draw: bool,
+    /// With --draw: draw at most about this many splats, thinned as the window's CPU path
+    /// does while the picture changes (`render::thin_splats`; the window uses 150000)
+    #[arg(long, value_name = "SPLATS")]
+    pub thin: Option<usize>,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -118,6 +122,7 @@ pub fn run(args: &BenchViewArgs) -> anyhow::Result<BenchViewReport> {
             seconds: args.seconds,
             full,
             draw: args.draw,
+            thin: args.thin,
             quiet: args.json,
         })
     };

@@ -321,3 +321,29 @@ fn tiny_far_splats_neither_vanish_nor_leave_holes() {
         .unwrap();
     assert!(img.rgba.chunks(4).any(|p| p != bg), "a tiny splat vanished");
 }
+
+/// The window's stand-in while the view moves at 10⁶ points (`render::thin_splats`): a random
+/// 200,000-point ellipsoid thinned to 20,000 (every 10th, axes grown) draws the same shape with
+/// no holes, close to the full set's picture; random order is the worst case for the stride.
+#[test]
+fn a_thinned_splat_set_draws_the_same_shape_without_holes() {
+    let axes = Vec3::new(0.07, 0.045, 0.035);
+    let dense = scenes::ellipsoid_random(200_000, axes, 3, [120, 170, 210, 255]);
+    let (lo, hi) = bounds(&dense);
+    let camera = Camera::framing(lo, hi, [0.3, -0.8, -1.0]);
+    let full = scenes::splats(&dense);
+    let mut thinned = Vec::new();
+    assert_eq!(render::thin_splats(&full, 20_000, &mut thinned), 10);
+    let a = render(&thinned, &camera, (W, H));
+    let b = render(&full, &camera, (W, H));
+    save(&a, "thinned");
+    let bg = Style::default().background;
+    let (psnr, psnr_inside, silhouette_px) = scenes::psnr_parts(&a, &b, bg);
+    let holes = scenes::holes(&a, bg);
+    eprintln!(
+        "thinned 200k -> {}: PSNR {psnr:.1} dB (inside {psnr_inside:.1}), {silhouette_px} outline px, {holes} holes",
+        thinned.len()
+    );
+    assert_eq!(holes, 0);
+    assert!(psnr >= 40.0, "{psnr}");
+}

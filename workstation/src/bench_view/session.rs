@@ -39,6 +39,8 @@ pub struct SessionSpec {
     pub full: bool,
     /// Draw frames headless.
     pub draw: bool,
+    /// Draw at most about this many splats (thinned).
+    pub thin: Option<usize>,
     /// No progress lines.
     pub quiet: bool,
 }
@@ -314,7 +316,9 @@ pub fn run(spec: &SessionSpec) -> anyhow::Result<SessionReport> {
         SplatUpdate::Incremental
     };
     let mut maker = if spec.draw {
-        Some(FrameMaker::with_splats(&file.render, mode)?)
+        let mut maker = FrameMaker::with_splats(&file.render, mode)?;
+        maker.thin_to(spec.thin);
+        Some(maker)
     } else {
         None
     };

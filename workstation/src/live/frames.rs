@@ -282,6 +282,8 @@ pub struct FrameMaker {
     image: Image,
     /// Time the last frame spent preparing splats and drawing them.
     timings: (Duration, Duration),
+    /// Draw at most about this many splats ([`render::thin_splats`]), and the thinned set.
+    thin: (Option<usize>, Vec<Splat>),
 }
 
 impl FrameMaker {
@@ -319,7 +321,14 @@ impl FrameMaker {
                 rgba: Vec::new(),
             },
             timings: (Duration::ZERO, Duration::ZERO),
+            thin: (None, Vec::new()),
         })
+    }
+
+    /// Draw at most about `budget` splats from now on, a thinned stand-in as the window's CPU
+    /// path draws while the picture changes (`None`: every splat, the default).
+    pub fn thin_to(&mut self, budget: Option<usize>) {
+        self.thin.0 = budget;
     }
 
     /// Time the last [`FrameMaker::render`] spent bringing the splats up to date, and drawing.
@@ -345,7 +354,11 @@ impl FrameMaker {
         });
         let overlay = overlay(snap, shared);
         let t0 = Instant::now();
-        let splats = self.splats.splats(snap);
+        let mut splats = self.splats.splats(snap);
+        if let (Some(budget), thinned) = &mut self.thin {
+            render::thin_splats(splats, *budget, thinned);
+            splats = thinned;
+        }
         let t1 = Instant::now();
         self.renderer
             .render_into(splats, &overlay, &camera, &mut self.image)?;
