@@ -28,6 +28,7 @@ struct Shown {
     size: (u32, u32),
     camera: render::Camera,
     overlay: render::Overlay,
+    style: render::Style,
     /// Drawn from every splat (not a thinned stand-in).
     full: bool,
 }
@@ -152,10 +153,12 @@ impl Gpu {
         let id = self.target(size);
         let (texture, color, depth, _) = self.color.as_ref().expect("made by target");
         if let Some(cpu) = &mut self.software {
+            let style = *self.renderer.style();
             let still = |full| Shown {
                 size,
                 camera: *camera,
                 overlay: *overlay,
+                style,
                 full,
             };
             // Nothing changed: the texture already shows this frame (the full one, or the
@@ -172,7 +175,7 @@ impl Gpu {
                 splats
             };
             cpu.renderer.resize(size.0, size.1)?;
-            cpu.renderer.set_style(*self.renderer.style());
+            cpu.renderer.set_style(style);
             cpu.renderer
                 .render_into(drawn, overlay, camera, &mut cpu.image)?;
             cpu.shown = Some(still(!thin));
