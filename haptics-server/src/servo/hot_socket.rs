@@ -18,7 +18,7 @@ use std::net::{SocketAddr, UdpSocket};
 use std::os::fd::AsRawFd as _;
 
 use protocol::packet::MAX_PACKET_BYTES;
-use protocol::{Body, ForceCommand, Inbound, SessionKey};
+use protocol::{Body, ForceCommand, Inbound, Packet, SessionKey};
 
 use crate::clock::MonoClock;
 use crate::telemetry::HotTick;
@@ -133,18 +133,11 @@ impl HotSocket {
                 self.tick.peer = Some(from);
                 self.tick.peer_changed = true;
             }
-            match packet.body {
-                // A command that arrived after a newer one is superseded: counted, not applied.
-                Body::Force(_) if newest != Some(packet.sequence) => {}
-                Body::Force(cmd) => {
-                    // Echoed cursor stamps are from our clock; 0 means "answers nothing".
-                    if cmd.answers_timestamp_ns != 0 && cmd.answers_timestamp_ns <= arrived {
-                        self.tick.applied_rtt_ns = arrived - cmd.answers_timestamp_ns;
-                    }
-                    apply(cmd, packet.sequence, arrived);
+            if let Some((cmd, rtt)) = command_to_apply(&packet, newest, arrived) {
+                if let Some(rtt) = rtt {
+                    self.tick.applied_rtt_ns = rtt;
                 }
-                // A cursor sample sent to the server is authentic but meaningless.
-                Body::Cursor(_) => {}
+                apply(cmd, packet.sequence, arrived);
             }
         }
         if let Some(inbound) = &self.inbound {
@@ -152,6 +145,26 @@ impl HotSocket {
             self.tick.force_sequence = inbound.sequence_stats();
         }
         self.tick
+    }
+}
+
+/// What an accepted hot-path packet asks of the servo, the same on both transports: its force
+/// command, unless a newer one was accepted before it (`newest`: superseded, counted, not
+/// applied), with the cursor → arrival round trip when it echoes one of our cursor stamps
+/// (those are from our clock; 0 answers nothing). A cursor sample sent to the server is
+/// authentic but meaningless: `None`.
+pub fn command_to_apply(
+    packet: &Packet,
+    newest: Option<u32>,
+    arrived_ns: u64,
+) -> Option<(ForceCommand, Option<u64>)> {
+    match packet.body {
+        Body::Force(cmd) if newest == Some(packet.sequence) => {
+            let echoed = cmd.answers_timestamp_ns;
+            let rtt = (echoed != 0 && echoed <= arrived_ns).then(|| arrived_ns - echoed);
+            Some((cmd, rtt))
+        }
+        Body::Force(_) | Body::Cursor(_) => None,
     }
 }
 

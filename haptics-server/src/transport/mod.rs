@@ -31,6 +31,7 @@ use protocol::{Body, Inbound, SessionKey};
 use crate::clock::MonoClock;
 use crate::device::DeviceInfo;
 use crate::servo::driver::{ServoLink, ServoMsg};
+use crate::servo::hot_socket::command_to_apply;
 use crate::telemetry::ServoStats;
 
 /// Timeouts and intervals of the network side.
@@ -163,26 +164,20 @@ impl Shared {
             Ok(packet) => {
                 hot.packets_in.fetch_add(1, Ordering::Relaxed);
                 hot.last_activity_ns.store(now, Ordering::Release);
-                match packet.body {
-                    // A command that arrived after a newer one is superseded: counted, not applied.
-                    Body::Force(_) if newest != Some(packet.sequence) => true,
-                    Body::Force(cmd) => {
-                        // Echoed cursor stamps are from our clock; 0 means "answers nothing".
-                        if cmd.answers_timestamp_ns != 0
-                            && cmd.answers_timestamp_ns <= now
-                            && let Ok(mut h) = hot.force_rtt.lock()
-                        {
-                            h.saturating_record(now - cmd.answers_timestamp_ns);
-                        }
-                        if let Ok(mut link) = self.link.lock() {
-                            // Drained every tick; full only if the servo thread is stuck.
-                            let _ = link.commands.push((cmd, packet.sequence, now));
-                        }
-                        true
-                    }
-                    // A cursor sample sent to the server is authentic but meaningless.
-                    Body::Cursor(_) => false,
+                let Some((cmd, rtt)) = command_to_apply(&packet, newest, now) else {
+                    // Superseded commands count as accepted, cursor samples do not.
+                    return matches!(packet.body, Body::Force(_));
+                };
+                if let Some(rtt) = rtt
+                    && let Ok(mut h) = hot.force_rtt.lock()
+                {
+                    h.saturating_record(rtt);
                 }
+                if let Ok(mut link) = self.link.lock() {
+                    // Drained every tick; full only if the servo thread is stuck.
+                    let _ = link.commands.push((cmd, packet.sequence, now));
+                }
+                true
             }
             Err(e) => {
                 tracing::debug!("hot-path packet rejected: {e}");
