@@ -282,8 +282,10 @@ pub struct FrameMaker {
     image: Image,
     /// Time the last frame spent preparing splats and drawing them.
     timings: (Duration, Duration),
-    /// Draw at most about this many splats ([`render::thin_splats`]), and the thinned set.
-    thin: (Option<usize>, Vec<Splat>),
+    /// Draw at most about this many splats ([`render::thin_splats`]).
+    thin_budget: Option<usize>,
+    /// The thinned set of the last frame (reused).
+    thinned: Vec<Splat>,
 }
 
 impl FrameMaker {
@@ -321,14 +323,15 @@ impl FrameMaker {
                 rgba: Vec::new(),
             },
             timings: (Duration::ZERO, Duration::ZERO),
-            thin: (None, Vec::new()),
+            thin_budget: None,
+            thinned: Vec::new(),
         })
     }
 
     /// Draw at most about `budget` splats from now on, a thinned stand-in as the window's CPU
     /// path draws while the picture changes (`None`: every splat, the default).
     pub fn thin_to(&mut self, budget: Option<usize>) {
-        self.thin.0 = budget;
+        self.thin_budget = budget;
     }
 
     /// Time the last [`FrameMaker::render`] spent bringing the splats up to date, and drawing.
@@ -355,9 +358,9 @@ impl FrameMaker {
         let overlay = overlay(snap, shared);
         let t0 = Instant::now();
         let mut splats = self.splats.splats(snap);
-        if let (Some(budget), thinned) = &mut self.thin {
-            render::thin_splats(splats, *budget, thinned);
-            splats = thinned;
+        if let Some(budget) = self.thin_budget {
+            render::thin_splats(splats, budget, &mut self.thinned);
+            splats = &self.thinned;
         }
         let t1 = Instant::now();
         self.renderer
