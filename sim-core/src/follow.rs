@@ -7,6 +7,15 @@
 //! `ẋ = −Ḟ ∇F/‖∇F‖²` (`Ḟ` = trilinear `u̇`) and is then Newton-projected onto `F = 0`
 //! (`x ← x − F ∇F/‖∇F‖²`, each step clamped to one grid spacing) so drift cannot accumulate.
 //!
+//! Normals: a moved point's normal is its own normal at the stroke's start turned by the
+//! sculpted change, `n = (n₀‖∇f_base‖ + ∇Δ_s) / ‖…‖`, with `∇Δ_s` the gradient of the grid
+//! displacements' tricubic (Catmull-Rom) interpolant, continuous across cells, unlike the
+//! trilinear interpolant's own gradient ([`displacement_gradient_smooth`]). `∇F` itself would do in exact
+//! arithmetic, but at a dense sampling the blended base field's gradient departs from the
+//! sampled normals by several degrees in patches (on a dense sampling of a coarse mesh it leans
+//! towards the mesh's flat facets), and the trilinear `∇Δ` jumps at every cell face: the
+//! sculpted region then shaded in facets while the rest stayed smooth.
+//!
 //! Cost: `f_base` is expensive (a blend of B-splines), so each point keeps a first-order Taylor
 //! model of it, `f_c + g_c·(x − x_c)`, refreshed (one exact evaluation) whenever the point has
 //! moved more than `taylor_radius` from `x_c`; the model's error is at most
@@ -78,6 +87,8 @@ pub(crate) struct PointCache {
     f: f64,
     g: DVec3,
     seen: f64,
+    /// The point's normal when the stroke first moved it (zero before that).
+    start_normal: DVec3,
 }
 
 /// A computed point update, applied by the [`Follower`] unless the point is stranded.
@@ -131,6 +142,61 @@ pub fn displacement_above(
     Some((val, grad / spec.spacing, vel))
 }
 
+/// The displacement's gradient at `x`, continuous across cells: the gradient of the
+/// Catmull-Rom (tricubic) interpolant of `u` over the 4×4×4 nodes around `x`'s cell (indices
+/// clamped at the grid's faces; nodes outside the band count as at rest, as in
+/// [`displacement_at`]). `None` outside the grid. What the points' normals are turned by (the
+/// module doc): on a Gaussian bump of 1.5 slope sampled every 2/6 of its width, its error
+/// is 0.06 against 0.41 for the trilinear interpolant's own gradient, which is constant along
+/// each cell's axis and jumps at its faces.
+pub fn displacement_gradient_smooth(model: &DynamicGrid, x: DVec3) -> Option<DVec3> {
+    let spec = model.spec();
+    let ([ci, cj, ck], t) = spec.locate(x)?;
+    let u = model.displacement();
+    // Catmull-Rom weights of the nodes at offsets −1, 0, 1, 2 and their derivatives in `t`.
+    let weights = |t: f64| -> ([f64; 4], [f64; 4]) {
+        let (t2, t3) = (t * t, t * t * t);
+        (
+            [
+                0.5 * (-t3 + 2.0 * t2 - t),
+                0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+                0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+                0.5 * (t3 - t2),
+            ],
+            [
+                0.5 * (-3.0 * t2 + 4.0 * t - 1.0),
+                0.5 * (9.0 * t2 - 10.0 * t),
+                0.5 * (-9.0 * t2 + 8.0 * t + 1.0),
+                0.5 * (3.0 * t2 - 2.0 * t),
+            ],
+        )
+    };
+    let (wx, dx) = weights(t.x);
+    let (wy, dy) = weights(t.y);
+    let (wz, dz) = weights(t.z);
+    let node = |c: usize, o: usize, n: usize| (c + o).saturating_sub(1).min(n - 1);
+    let mut grad = DVec3::ZERO;
+    for c in 0..4 {
+        let k = node(ck, c, spec.dims[2]);
+        for b in 0..4 {
+            let j = node(cj, b, spec.dims[1]);
+            for a in 0..4 {
+                let i = node(ci, a, spec.dims[0]);
+                let Some(s) = model.slot(spec.index(i, j, k)) else {
+                    continue;
+                };
+                let v = u[s];
+                grad += v * DVec3::new(
+                    dx[a] * wy[b] * wz[c],
+                    wx[a] * dy[b] * wz[c],
+                    wx[a] * wy[b] * dz[c],
+                );
+            }
+        }
+    }
+    Some(grad / spec.spacing)
+}
+
 /// `F` and `∇F` at `x` (`Δ` is 0 outside the grid or at rest).
 pub fn sculpted_value(base: &GlobalField, model: &DynamicGrid, x: DVec3) -> (f64, DVec3) {
     let (f, g) = base.value_and_gradient(x);
@@ -172,7 +238,7 @@ pub(crate) fn follow_point(
                 x,
                 f,
                 g,
-                seen: cache.seen,
+                ..cache
             };
             exact = true;
         }
@@ -193,11 +259,23 @@ pub(crate) fn follow_point(
             None => break,
         }
     }
-    let (f, g) = eval(x);
+    let (f, _) = eval(x);
     cache.seen = displacement_at(model, x).map_or(0.0, |(d, _, _)| d);
+    if cache.start_normal == DVec3::ZERO {
+        cache.start_normal = n0;
+    }
+    // In the field's orientation (a point whose normal disagrees with the field keeps its own
+    // orientation).
+    let side = if cache.start_normal.dot(cache.g) < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    let turned = side * cache.start_normal * cache.g.length()
+        + displacement_gradient_smooth(model, x).unwrap_or(DVec3::ZERO);
     Some(PointUpdate {
         position: x,
-        normal: g.try_normalize().unwrap_or(n0),
+        normal: turned.try_normalize().map_or(n0, |n| side * n),
         residual: f.abs(),
         exact,
         cache,
