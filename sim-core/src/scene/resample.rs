@@ -18,8 +18,8 @@
 //!    is removed (compression by a push or an emboss).
 //! 3. **Holes**: around each candidate whose neighbourhood lies inside the box, the largest
 //!    empty circle of its tangent-plane Voronoi cell ([`largest_empty_circle`]); wider than
-//!    `max_gap`, a point is inserted there, projected onto the zero set, normal from the
-//!    gradient, colour from its parent; repeated `passes` times around the new points.
+//!    `max_gap`, a point is inserted there, projected onto the zero set, normal as below,
+//!    colour from its parent; repeated `passes` times around the new points.
 //!
 //! Normals: a point keeps its own normal (the sampled one, turned by the strokes that moved it:
 //! [`crate::follow`]) while it is within [`KEEP_NORMAL_ANGLE_COS`] of the field's gradient, and

@@ -96,7 +96,7 @@ pub struct RegionSpec {
     #[serde(default)]
     pub auto_upsample: Option<f64>,
     /// Resample the region's points (back onto the surface, crowded ones merged, holes filled,
-    /// normals from the field) after each commit and after CSG and embossing. Live sessions:
+    /// normals that agree with the field) after each commit and after CSG and embossing. Live sessions:
     /// on unless `false`; `sculpt` scripts: off unless `true`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resample: Option<bool>,
