@@ -248,6 +248,61 @@ pub fn linear_to_srgb(v: f32) -> u8 {
     (s * 255.0).round() as u8
 }
 
+/// Buckets of the [`SrgbEncoder`]'s first guess.
+const SRGB_BUCKETS: usize = 4096;
+
+/// [`linear_to_srgb`] by table, the same byte for every `f32` (tested), without its `powf`:
+/// the smallest linear value of each byte (found by bisection on [`linear_to_srgb`] itself)
+/// and, per 1/4096 of the range, the byte its start encodes to; a value steps up from there
+/// past at most one or two thresholds. A quarter of a software frame was the `powf` and the
+/// rounding of this encoding.
+pub(crate) struct SrgbEncoder {
+    /// `thresholds[k]`: the smallest `f32` that encodes to `k` or more (`k ≥ 1`).
+    thresholds: [f32; 256],
+    start: [u8; SRGB_BUCKETS + 1],
+}
+
+impl SrgbEncoder {
+    fn new() -> Self {
+        let mut thresholds = [0.0f32; 256];
+        for (k, t) in thresholds.iter_mut().enumerate().skip(1) {
+            // Bisection over the bit patterns of non-negative floats (ordered as integers).
+            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if linear_to_srgb(f32::from_bits(mid)) as usize >= k {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            *t = f32::from_bits(lo);
+        }
+        let mut start = [0u8; SRGB_BUCKETS + 1];
+        for (b, s) in start.iter_mut().enumerate() {
+            *s = linear_to_srgb(b as f32 / SRGB_BUCKETS as f32);
+        }
+        Self { thresholds, start }
+    }
+
+    /// The shared table.
+    pub(crate) fn get() -> &'static Self {
+        static TABLE: std::sync::OnceLock<SrgbEncoder> = std::sync::OnceLock::new();
+        TABLE.get_or_init(Self::new)
+    }
+
+    /// `linear_to_srgb(v)`.
+    #[inline]
+    pub(crate) fn encode(&self, v: f32) -> u8 {
+        let v = v.clamp(0.0, 1.0);
+        let mut k = self.start[(v * SRGB_BUCKETS as f32) as usize];
+        while k < 255 && v >= self.thresholds[k as usize + 1] {
+            k += 1;
+        }
+        k
+    }
+}
+
 /// sRGB bytes to linear RGBA (alpha is linear already).
 pub(crate) fn color_linear(c: [u8; 3], alpha: f32) -> [f32; 4] {
     [
@@ -266,6 +321,27 @@ mod tests {
     fn splat_is_64_bytes() {
         // Four 16-byte rows: `shaders.wgsl` reads `splats[4u * i + 0..3]`.
         assert_eq!(std::mem::size_of::<Splat>(), 64);
+    }
+
+    /// The table encodes every float in [0, 1] (and beyond, and NaN) as the formula does.
+    #[test]
+    fn the_srgb_table_encodes_every_float_as_the_formula() {
+        let table = SrgbEncoder::get();
+        let mut checked = 0u64;
+        for bits in (0..=1.0f32.to_bits()).step_by(7) {
+            let v = f32::from_bits(bits);
+            assert_eq!(table.encode(v), linear_to_srgb(v), "{v:e}");
+            checked += 1;
+        }
+        for &t in &table.thresholds[1..] {
+            for v in [t, f32::from_bits(t.to_bits() - 1)] {
+                assert_eq!(table.encode(v), linear_to_srgb(v), "{v:e}");
+            }
+        }
+        for v in [-1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            assert_eq!(table.encode(v), linear_to_srgb(v), "{v}");
+        }
+        assert!(checked > 100_000_000);
     }
 
     #[test]

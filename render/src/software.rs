@@ -10,7 +10,7 @@ use crate::{
     ewa::{self, FrameParams, MIN_WEIGHT, SplatSetup},
     geometry::{Mesh, OverlayInstances, unit_cone, unit_sphere},
     raster::{self, Tri},
-    scene::{linear_to_srgb, srgb_to_linear},
+    scene::{SrgbEncoder, srgb_to_linear},
 };
 
 /// Rows per band: the unit of parallel work (a band's buffers stay in cache).
@@ -315,10 +315,11 @@ impl Band<'_> {
 
 /// Linear RGBA to sRGB bytes (alpha linear), as an sRGB render target stores them.
 fn encode(color: &[Vec4], rgba: &mut [u8]) {
+    let srgb = SrgbEncoder::get();
     for (c, out) in color.iter().zip(rgba.chunks_exact_mut(4)) {
-        out[0] = linear_to_srgb(c.x);
-        out[1] = linear_to_srgb(c.y);
-        out[2] = linear_to_srgb(c.z);
+        out[0] = srgb.encode(c.x);
+        out[1] = srgb.encode(c.y);
+        out[2] = srgb.encode(c.z);
         out[3] = (c.w.clamp(0.0, 1.0) * 255.0).round() as u8;
     }
 }
