@@ -92,6 +92,11 @@ impl SplatCache {
         &self.splats
     }
 
+    /// No update yet, or no points.
+    pub fn is_empty(&self) -> bool {
+        self.splats.is_empty()
+    }
+
     /// The splats of the last update.
     pub fn current(&self) -> &[Splat] {
         &self.splats
@@ -170,6 +175,39 @@ impl SplatCache {
             rewritten,
         };
         self.last
+    }
+
+    /// A thinned stand-in for `points` without updating the cache ([`render::thin_splats`]'s
+    /// stride and growth): every k-th point where it is now, with the splat shape the cache
+    /// last computed for its index (the last one for points past the cache's end). O(budget):
+    /// for frames drawn while a stroke moves tens of thousands of points, whose shapes the
+    /// next [`SplatCache::update`] brings up to date once the surface holds still. Returns k.
+    pub fn preview(&self, points: &ChunkedPoints, budget: usize, out: &mut Vec<Splat>) -> usize {
+        out.clear();
+        let shapes = self.neighbours.shapes();
+        let Some(last) = shapes.last() else {
+            return 1;
+        };
+        let k = points.len().div_ceil(budget.max(1)).max(1);
+        let grow = (k as f32).sqrt() * render::THIN_MARGIN;
+        let grow = if k == 1 { 1.0 } else { grow };
+        let mut i = 0;
+        for c in points.chunks() {
+            // The first point of this chunk on the stride.
+            let mut at = (k - i % k) % k;
+            while at < c.len() {
+                let shape = shapes.get(i + at).unwrap_or(last);
+                let s = splat(c.positions[at], c.normals[at], c.colors[at], shape);
+                out.push(Splat {
+                    radius: s.radius * grow,
+                    minor_radius: s.minor_radius * grow,
+                    ..s
+                });
+                at += k;
+            }
+            i += c.len();
+        }
+        k
     }
 
     fn update_full(&mut self, points: &ChunkedPoints) -> SplatWork {
@@ -447,6 +485,43 @@ mod tests {
                 DVec3::new(a.cos() * 0.05, a.sin() * 0.05, h + 0.001 * (3.0 * a).sin())
             })
             .collect()
+    }
+
+    /// The window's stand-in while a stroke moves points: every k-th point where it is now,
+    /// with the shape last computed for it; unchanged points preview exactly as the cache's
+    /// own splats thin.
+    #[test]
+    fn a_preview_thins_the_points_where_they_are_with_the_cached_shapes() {
+        let mut p = ring(20_000);
+        let n = vec![DVec3::Z; p.len()];
+        let c = vec![[10u8, 20, 30]; p.len()];
+        let mut publisher = PointPublisher::new();
+        let mut publish = |p: &[DVec3]| {
+            publisher.mark_all();
+            publisher.publish(&[ObjectPoints {
+                positions: p,
+                normals: &n,
+                colors: &c,
+            }])
+        };
+        let mut cache = SplatCache::default();
+        let snap = publish(&p);
+        cache.update(&snap);
+        let (mut preview, mut thinned) = (Vec::new(), Vec::new());
+        let k = cache.preview(&snap, 3_000, &mut preview);
+        assert_eq!(k, render::thin_splats(cache.current(), 3_000, &mut thinned));
+        assert_eq!(preview, thinned);
+        // Move every point up: the preview follows them, the cache does not.
+        for x in &mut p {
+            *x += DVec3::Z * 0.001;
+        }
+        let moved = publish(&p);
+        cache.preview(&moved, 3_000, &mut preview);
+        for (a, b) in preview.iter().zip(&thinned) {
+            assert!((a.position[2] - b.position[2] - 0.001).abs() < 1e-6);
+            assert_eq!((a.radius, a.axis), (b.radius, b.axis));
+        }
+        assert_eq!(cache.current()[0].position, thinned[0].position);
     }
 
     #[test]

@@ -18,7 +18,7 @@ use super::scene::{Gpu, save_color_image};
 use super::stylus::{self, MouseStylus};
 use super::{Exit, Link, Starter};
 use crate::live::Workstation;
-use crate::live::frames::{self, SplatCache, SplatWork};
+use crate::live::frames::{self, SplatCache};
 use crate::live::points::ChunkedPoints;
 use crate::live::scene_file::ToolKind;
 use crate::live::sim::SimReport;
@@ -371,11 +371,7 @@ impl ViewApp {
         // Draw.
         let camera = orbit.camera();
         let overlay = frames::overlay(&snap, &self.link.shared);
-        let before = self.splats.current().len();
-        let work = self.splats.update(&snap.points);
-        let splats = self.splats.current();
-        let changed = work != SplatWork::default() || splats.len() != before;
-        match self.gpu.draw(size, splats, changed, &overlay, &camera) {
+        match self.gpu.draw(size, &mut self.splats, &snap, &overlay, &camera) {
             Ok(id) => {
                 let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
                 ui.painter().image(id, rect, uv, egui::Color32::WHITE);

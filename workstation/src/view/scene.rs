@@ -5,10 +5,19 @@
 //! On a CPU implementation of Vulkan (Mesa's lavapipe, a machine without a GPU) the same
 //! splatting runs on the CPU ([`render::SoftwareRenderer`], faster there than lavapipe) and
 //! the frame is uploaded into the texture instead. There a frame costs ~0.3 µs per splat, so
-//! the CPU path draws only what changed the picture: a frame whose splats, camera, overlay and
-//! size are those of the frame on screen is not drawn again, and above [`CPU_SPLAT_BUDGET`]
-//! splats a frame drawn while something changes uses a thinned stand-in
-//! ([`render::thin_splats`]), then the full set on the first frame after it holds still.
+//! the CPU path draws only what changed the picture: a frame whose points, camera, overlay,
+//! style and size are those of the frame on screen is not drawn again. Above
+//! [`CPU_SPLAT_BUDGET`] splats a frame drawn while something changes is a thinned stand-in
+//! built from the snapshot's points and the splat shapes last computed
+//! ([`SplatCache::preview`], O(budget)): the shapes of the points a stroke moves (tens of
+//! thousands at 10⁶ points, ~0.1 s) are brought up to date once, on the first frame after the
+//! picture holds still, which draws every splat.
+//!
+//! Tried and dropped (measured in docs/BENCHMARKS.md, "The window"): drawing on a thread of
+//! its own. The window's thread then never waited for the scene (11 frames/s while a rope moved
+//! 10⁶ points, against 5–6), but on two cores the window's own frames (egui through lavapipe)
+//! and the scene's ran side by side instead of in turn, and the surface under the mouse moved
+//! at 2.5 frames/s instead of 5–6.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -17,6 +26,9 @@ use anyhow::Context as _;
 
 use eframe::egui;
 use eframe::egui_wgpu;
+
+use crate::live::frames::SplatCache;
+use crate::live::shared::RenderSnapshot;
 
 /// Above this many splats the CPU path draws a thinned set while the picture changes (a
 /// frame of ~50 ms on two cores; 10⁶ splats take ~0.35 s).
@@ -29,6 +41,8 @@ struct Shown {
     camera: render::Camera,
     overlay: render::Overlay,
     style: render::Style,
+    /// The snapshot's points ([`crate::live::points::ChunkedPoints::key`]).
+    points: (usize, u64),
     /// Drawn from every splat (not a thinned stand-in).
     full: bool,
 }
@@ -140,13 +154,13 @@ impl Gpu {
         self.texture.expect("registered above")
     }
 
-    /// Draw `splats` (`changed`: not the splats of the previous call) with `overlay` from
-    /// `camera` into the scene texture.
+    /// Draw the points of `snap` (their splats in `splats`, brought up to date here) with
+    /// `overlay` from `camera` into the scene texture.
     pub(super) fn draw(
         &mut self,
         size: (u32, u32),
-        splats: &[render::Splat],
-        changed: bool,
+        splats: &mut SplatCache,
+        snap: &RenderSnapshot,
         overlay: &render::Overlay,
         camera: &render::Camera,
     ) -> anyhow::Result<egui::TextureId> {
@@ -159,20 +173,22 @@ impl Gpu {
                 camera: *camera,
                 overlay: *overlay,
                 style,
+                points: snap.points.key(),
                 full,
             };
             // Nothing changed: the texture already shows this frame (the full one, or the
             // thinned one refined below).
-            if !changed && cpu.shown == Some(still(true)) {
+            if cpu.shown == Some(still(true)) {
                 return Ok(id);
             }
-            let moving = changed || cpu.shown.is_none_or(|s| s != still(s.full));
-            let thin = moving && splats.len() > CPU_SPLAT_BUDGET;
+            let moving = cpu.shown.is_none_or(|s| s != still(s.full));
+            let thin = moving && snap.points.len() > CPU_SPLAT_BUDGET && !splats.is_empty();
             let drawn: &[render::Splat] = if thin {
-                render::thin_splats(splats, CPU_SPLAT_BUDGET, &mut cpu.thinned);
+                splats.preview(&snap.points, CPU_SPLAT_BUDGET, &mut cpu.thinned);
                 &cpu.thinned
             } else {
-                splats
+                splats.update(&snap.points);
+                splats.current()
             };
             cpu.renderer.resize(size.0, size.1)?;
             cpu.renderer.set_style(style);
@@ -195,6 +211,8 @@ impl Gpu {
             );
             return Ok(id);
         }
+        splats.update(&snap.points);
+        let splats = splats.current();
         let mut encoder =
             self.renderer
                 .device()
