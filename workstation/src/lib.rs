@@ -1,5 +1,6 @@
 //! `workstation`: the commands and threads around `sim-core`. [`live`] is the workstation
-//! process itself (network, force-mapping, simulation and rendering threads; `run`, `demo`).
+//! process itself (network, force-mapping, simulation and rendering threads), [`session`] the
+//! commands that drive it (`run`, `demo`), [`view`] its window.
 //!
 //! Every subcommand of the `workstation` binary is a module here, so it can be tested
 //! without spawning a process. Library code returns errors; only the binary prints them.
@@ -19,5 +20,6 @@ pub mod plot;
 pub mod relay;
 pub mod scenes;
 pub mod sculpt;
+pub mod session;
 pub mod status;
 pub mod view;

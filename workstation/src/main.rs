@@ -24,16 +24,16 @@ enum Command {
     /// scripted session (rope, paint, probe, CSG, emboss) through the real network path;
     /// writes summary.json, final.ply, final_mesh.* and PNG frames to --out. Opens the window
     /// when a display is present (--no-window keeps it headless).
-    Demo(workstation::live::demo::DemoArgs),
+    Demo(workstation::session::demo::DemoArgs),
     /// Open the interactive window on a scene: splat view, control panel, live plots. Without
     /// --server the mouse is the stylus on the surface under it (left button presses; rope:
     /// drag pulls out, Shift + drag pushes in; wheel: the tool's depth; Ctrl + wheel zooms).
     View(workstation::view::ViewArgs),
     /// Run the workstation against a haptics server: network, force-mapping, simulation and
     /// rendering threads on a scene; saves the model on exit (Ctrl-C or --seconds).
-    Run(workstation::live::run::RunArgs),
+    Run(workstation::session::run::RunArgs),
     /// Write a scene's strokes as a fake-device path file for `haptics-server --fake-path file`.
-    HandPath(workstation::live::run::HandPathArgs),
+    HandPath(workstation::session::run::HandPathArgs),
     /// Render a point or mesh file (PLY, OFF, OBJ, XYZ) headless to a PNG.
     Render(workstation::live::snapshot_png::RenderArgs),
     /// Print what this build can do and how to start.
@@ -87,10 +87,10 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Relay(args) => workstation::relay::run(&args),
-        Command::Demo(args) => workstation::live::demo::command(&args),
+        Command::Demo(args) => workstation::session::demo::command(&args),
         Command::View(args) => workstation::view::run(&args),
-        Command::Run(args) => workstation::live::run::run(&args),
-        Command::HandPath(args) => workstation::live::run::hand_path_command(&args),
+        Command::Run(args) => workstation::session::run::run(&args),
+        Command::HandPath(args) => workstation::session::run::hand_path_command(&args),
         Command::Render(args) => workstation::live::snapshot_png::run(&args),
         Command::MeshError(args) => {
             let report = workstation::fit::run_mesh_error(&args)?;

@@ -17,11 +17,9 @@
 //! [`Workstation::start`] loads the scene and starts the threads; [`Workstation::finish`]
 //! stops them and returns the simulation core for saving ([`save`]).
 //!
-//! Layers, arrows pointing down only:
+//! Layers, arrows pointing down only (the commands that drive a session, `demo` and `run`,
+//! are [`crate::session`]'s, above this module and the window):
 //! ```text
-//!  demo, run                 commands: drive a session, print, save (demo ──▶ crate::view,
-//!    │                       the window, which shows a session through a Link and imports
-//!    ▼                       neither)
 //!  phases                    a scene's scripted strokes: the fake hand's path, the phase driver
 //!    ▼
 //!  Workstation (here)        starts and stops the threads
@@ -32,7 +30,6 @@
 //!  shared, scene_file, transform         hand-offs, scene files, the device frame
 //! ```
 
-pub mod demo;
 pub mod force;
 pub mod frames;
 pub mod mouse;
@@ -40,7 +37,6 @@ pub mod neighbours;
 pub mod net;
 pub mod phases;
 pub mod points;
-pub mod run;
 pub mod scene_file;
 pub mod shared;
 pub mod sim;

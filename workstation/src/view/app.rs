@@ -371,7 +371,10 @@ impl ViewApp {
         // Draw.
         let camera = orbit.camera();
         let overlay = frames::overlay(&snap, &self.link.shared);
-        match self.gpu.draw(size, &mut self.splats, &snap, &overlay, &camera) {
+        match self
+            .gpu
+            .draw(size, &mut self.splats, &snap, &overlay, &camera)
+        {
             Ok(id) => {
                 let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
                 ui.painter().image(id, rect, uv, egui::Color32::WHITE);

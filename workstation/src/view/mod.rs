@@ -23,8 +23,8 @@
 //! camera (the wheel zooms). Keys: 1–6 select tools, Ctrl+S saves the scene, Ctrl+E exports
 //! PLY/OBJ/STL, F12 saves a screenshot, Ctrl+Q quits.
 //!
-//! One job per file, arrows down only (the window imports `live`, never `demo` or `run`; they
-//! open it through [`open`] and a [`Link`]):
+//! One job per file, arrows down only (the window imports `live`, never `crate::session`, whose
+//! `demo` and `run` open it through [`open`] and a [`Link`]):
 //! - here: `workstation view`'s arguments, the [`Link`] to a session, starting one, [`open`];
 //! - `app`: the app's state, the per-frame update, status lines and the `--state` JSON;
 //! - `actions`: what the panel's buttons and the keys do;

@@ -10,16 +10,16 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use super::phases::{drive_phases, hand_path, write_hand_path};
-use super::scene_file::load_scene;
-use super::{Workstation, save};
+use crate::live::phases::{drive_phases, hand_path, write_hand_path};
+use crate::live::scene_file::load_scene;
+use crate::live::{Workstation, save};
 
 /// Arguments of `workstation run`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RunArgs {
     /// Where and how to connect.
     #[command(flatten)]
-    pub connect: super::net::ConnectArgs,
+    pub connect: crate::live::net::ConnectArgs,
     /// The scene (TOML; see examples/live/README.md).
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: PathBuf,

@@ -22,11 +22,11 @@ use glam::Vec3;
 use haptics_client::TransportKind;
 use serde::Serialize;
 
-use super::net::NetConfig;
-use super::phases::{PhaseReport, drive_phases, hand_path, write_hand_path};
-use super::scene_file::{DEMO_IMAGE, DEMO_SCENE, SceneFile};
-use super::shared::PercentilesUs;
-use super::{CursorSource, LiveStats, Workstation, save};
+use crate::live::net::NetConfig;
+use crate::live::phases::{PhaseReport, drive_phases, hand_path, write_hand_path};
+use crate::live::scene_file::{DEMO_IMAGE, DEMO_SCENE, SceneFile};
+use crate::live::shared::PercentilesUs;
+use crate::live::{CursorSource, LiveStats, Workstation, save};
 use crate::view::{self, Exit, Link};
 
 /// Seconds the hand rests before the first stroke (the session comes up meanwhile).
@@ -325,7 +325,7 @@ pub fn udp_baseline(n: usize) -> anyhow::Result<PercentilesUs> {
         h.saturating_record(t0.elapsed().as_nanos() as u64);
     }
     let _ = echo.join();
-    Ok(super::force::percentiles_us(&h))
+    Ok(crate::live::force::percentiles_us(&h))
 }
 
 /// Keeps the in-process server alive.
@@ -348,7 +348,7 @@ pub fn embedded_server(
     });
     let mut opts = ServerOptions::for_tests(transport)?;
     // Real-time servo when the OS allows it (else it warns and runs SCHED_OTHER).
-    opts.driver.rt.fifo_priority = Some(super::force::SERVO_FIFO_PRIORITY);
+    opts.driver.rt.fifo_priority = Some(crate::live::force::SERVO_FIFO_PRIORITY);
     let server = Server::start(device, opts)?;
     let cfg = NetConfig {
         server: server.local_addr(),
