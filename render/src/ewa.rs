@@ -398,6 +398,20 @@ pub(crate) struct Sample {
     /// the ellipse's edge instead darkened outlines, frame gradient energy 1.75 → 2.03 on the
     /// torus; cutting those pixels at silhouettes too left 50–70 holes).
     pub uv: Vec2,
+    /// The pre-filter gave the weight at a point the silhouette cut removes: the pixel lies
+    /// beyond the splat's outline, and blends the grazing normal there ([`graze_normal`]).
+    pub graze: bool,
+}
+
+/// The normal a pixel beyond a splat's outline blends (its pre-filter covers it, its cut does
+/// not): the splat's normal turned perpendicular to the eye `e` at that pixel, as the surface's
+/// normal is at an outline. With the splat's centre normal instead, such pixels (the outermost
+/// ring of every silhouette of a sparse sampling) were lighter than a dense sampling's
+/// outline: sparse-vs-dense PSNR torus 40.5 → 41.5 dB, ellipsoids 40.2/40.9 → 41.5/42.0 dB,
+/// the far torus at 160×90 28.3 → 30.8 dB.
+#[inline]
+pub(crate) fn graze_normal(n: Vec3, e: Vec3) -> Vec3 {
+    (n - n.dot(e) * e).try_normalize().unwrap_or(n)
 }
 
 /// The sample of splat `s` at pixel centre `(px, py)`, or `None` outside its footprint or the
@@ -413,6 +427,7 @@ pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<
     let mut d2 = d2_scr;
     let mut w = s.wc;
     let mut uv = Vec2::ZERO;
+    let mut graze = false;
     if s.obj && den > 1e-6 {
         let scale = s.wc / den;
         let d2_obj = (gx * gx + gy * gy) * (scale * scale);
@@ -423,6 +438,8 @@ pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<
             d2 = d2_obj;
             w = scale;
             uv = Vec2::new(cu, cv);
+        } else if !kept {
+            graze = true;
         }
     }
     if d2 > 1.0 {
@@ -437,6 +454,7 @@ pub(crate) fn eval(s: &SplatSetup, f: &FrameParams, px: f32, py: f32) -> Option<
         depth,
         depth_pushed: (f.depth_a + f.depth_b / (w + s.eps)).min(1.0),
         uv,
+        graze,
     })
 }
 

@@ -266,10 +266,12 @@ fn ewa_setup(i: u32) -> Ewa {
 }
 
 // `ewa::eval` at pixel centre `pos`: v = (weight, depth, pushed depth, 1), or v.w = 0 outside;
-// uv = (û, v̂) of the object-space hit (zero from the screen-space pre-filter).
+// uv = (û, v̂) of the object-space hit (zero from the screen-space pre-filter); graze = 1 where
+// the pre-filter covers a point the silhouette cut removes.
 struct EwaSample {
     v: vec4<f32>,
     uv: vec2<f32>,
+    graze: f32,
 };
 
 fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>, cut: vec4<f32>, pos: vec2<f32>) -> EwaSample {
@@ -287,6 +289,7 @@ fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>
     var d2 = d2_scr;
     var w = center_wc.z;
     var uv = vec2<f32>(0.0);
+    var graze = 0.0;
     if k.z > 0.5 && den > 1e-6 {
         let scale = center_wc.z / den;
         let d2_obj = (gx * gx + gy * gy) * (scale * scale);
@@ -298,6 +301,8 @@ fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>
             d2 = d2_obj;
             w = scale;
             uv = vec2<f32>(cu, cv);
+        } else if !kept {
+            graze = 1.0;
         }
     }
     if d2 > 1.0 {
@@ -312,7 +317,24 @@ fn ewa_eval(center_wc: vec4<f32>, ainv: vec4<f32>, k: vec4<f32>, bbox: vec4<f32>
     var out: EwaSample;
     out.v = vec4<f32>((exp(-frame.ewa_k.x * d2) - edge) * (1.0 / (1.0 - edge)), depth, pushed, 1.0);
     out.uv = uv;
+    out.graze = graze;
     return out;
+}
+
+// `ewa::graze_normal`: the normal turned perpendicular to the eye direction `e`.
+fn graze_normal(n: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
+    let g = n - dot(n, e) * e;
+    if dot(g, g) > 0.0 {
+        return normalize(g);
+    }
+    return n;
+}
+
+// `FrameParams::eye_dir` at pixel centre `pos`.
+fn eye_dir(pos: vec2<f32>) -> vec3<f32> {
+    let nx = pos.x * 2.0 * frame.viewport.z - 1.0;
+    let ny = 1.0 - pos.y * 2.0 * frame.viewport.w;
+    return -normalize(frame.forward.xyz + nx * frame.right_t.xyz + ny * frame.up_t.xyz);
 }
 
 struct EwaOut {
@@ -388,7 +410,11 @@ fn fs_ewa_attribute(v: EwaOut) -> AttributeOut {
     }
     var out: AttributeOut;
     out.color = vec4<f32>(s.x * v.albedo, s.x);
-    out.normal = vec4<f32>(s.x * hit_normal(v.normal, v.dn_u, v.dn_v, v.cut, v.bend, v.quad, r.uv), 0.0);
+    var n = hit_normal(v.normal, v.dn_u, v.dn_v, v.cut, v.bend, v.quad, r.uv);
+    if r.graze > 0.5 {
+        n = graze_normal(v.normal, eye_dir(v.clip.xy));
+    }
+    out.normal = vec4<f32>(s.x * n, 0.0);
     out.depth = s.y;
     return out;
 }
@@ -408,9 +434,7 @@ fn fs_ewa_normalise(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32>
     if c.w < frame.ewa_k.w {
         discard;
     }
-    let nx = pos.x * 2.0 * frame.viewport.z - 1.0;
-    let ny = 1.0 - pos.y * 2.0 * frame.viewport.w;
-    let l = -normalize(frame.forward.xyz + nx * frame.right_t.xyz + ny * frame.up_t.xyz);
+    let l = eye_dir(pos.xy);
     let sum_n = textureLoad(accum_normal, ip, 0).xyz;
     var n = l;
     if dot(sum_n, sum_n) > 0.0 {

@@ -280,7 +280,14 @@ impl Band<'_> {
                     let a = &mut accum[i];
                     a.color += sm.weight * s.albedo;
                     a.weight += sm.weight;
-                    a.normal += sm.weight * ewa::hit_normal(s, sm.uv);
+                    a.normal += sm.weight
+                        * if sm.graze {
+                            let x = (i as u32 % self.width) as f32 + 0.5;
+                            let y = (self.y0 + i as u32 / self.width) as f32 + 0.5;
+                            ewa::graze_normal(s.normal, self.f.eye_dir(x, y))
+                        } else {
+                            ewa::hit_normal(s, sm.uv)
+                        };
                 }
             });
         }

@@ -9,12 +9,13 @@ use render::{Camera, Image, Overlay, SoftwareRenderer, Splat, Style};
 use crate::scenes::{self, Sample, gradient_energy, psnr, save};
 
 /// The bounds every sparse/dense pair meets: the issue's ≥ 35 dB over the frame (here ≥
-/// `min_psnr`, set under what each scene measured: 40.5 dB torus, 40.2 and 40.9 dB the
+/// `min_psnr`, set under what each scene measured: 41.5 dB torus, 41.5 and 42.0 dB the
 /// ellipsoids, docs/BENCHMARKS.md), ≥ 48 dB inside the silhouettes (51.0–54.3), the issue's
 /// gradient-energy ratio 0.8–1.25 inside them (0.99–1.03), and no holes. Over the whole frame
-/// (outlines included) the ratio is 1.20–1.28, bounded at 1.35: the outlines' last pixels take
-/// the curved surface's normal where the eye's ray meets it (`ewa::hit_normal`) and splats
-/// just behind an outline keep their own normal (`ewa::TURN_BELOW`); before those two it was
+/// (outlines included) the ratio is 1.16–1.29, bounded at 1.35: the outlines' last pixels take
+/// the curved surface's normal where the eye's ray meets it (`ewa::hit_normal`), pixels only
+/// a cut splat's pre-filter covers its grazing normal (`ewa::graze_normal`), and splats just
+/// behind an outline keep their own normal (`ewa::TURN_BELOW`); before those it was
 /// 1.48–1.75, light flecks along every outline. With flat splats (before `Splat::curvature`:
 /// no silhouette cut, the plane's normal everywhere) the torus measured 31.4 dB over the frame
 /// and 41.9 dB inside.
@@ -102,7 +103,7 @@ fn clay(p: Vec3) -> [u8; 4] {
 fn sparse_and_dense_torus_render_alike() {
     let sparse = scenes::torus(3_000, 0.06, 0.025, 1, clay);
     let dense = scenes::torus(200_000, 0.06, 0.025, 2, clay);
-    assert_alike(&compare("torus", &sparse, &dense, [0.2, -0.5, -1.0]), 36.0);
+    assert_alike(&compare("torus", &sparse, &dense, [0.2, -0.5, -1.0]), 39.0);
 }
 
 /// Anisotropic sampling: a lat-long grid crowds its points along the parallels near the poles;
@@ -115,7 +116,7 @@ fn anisotropic_ellipsoid_grid_renders_like_a_dense_sampling() {
     let dense = scenes::ellipsoid_random(200_000, axes, 3, color);
     assert_alike(
         &compare("ellipsoid", &sparse, &dense, [0.3, -0.8, -1.0]),
-        38.0,
+        40.0,
     );
 }
 
@@ -127,7 +128,7 @@ fn sparse_and_dense_random_ellipsoid_render_alike() {
     let dense = scenes::ellipsoid_random(200_000, axes, 5, [200, 160, 120, 255]);
     assert_alike(
         &compare("ellipsoid_random", &sparse, &dense, [0.3, -0.8, -1.0]),
-        38.0,
+        40.0,
     );
 }
 
@@ -273,8 +274,9 @@ fn paint_edge_stays_an_edge() {
 
 /// Far away, 200k splats are each much smaller than a pixel: the pre-filter keeps every one at
 /// least a pixel's footprint, so the silhouette's inside has no holes and the picture is close
-/// to the sparse sampling's at the same size (≥ 25 dB: at 160×90 a quarter of the shape's
-/// pixels are silhouette, where the sparse splats protrude; measured 26.7 dB).
+/// to the sparse sampling's at the same size (≥ 28 dB: at 160×90 a quarter of the shape's
+/// pixels are silhouette, where the sparse splats protrude; measured 30.8 dB, 28.3 before
+/// outline pixels took the grazing normal).
 #[test]
 fn tiny_far_splats_neither_vanish_nor_leave_holes() {
     let dense = scenes::torus(200_000, 0.06, 0.025, 8, clay);
@@ -303,7 +305,7 @@ fn tiny_far_splats_neither_vanish_nor_leave_holes() {
     assert!(inside > 1000, "{inside} pixels inside");
     let p = psnr(&a, &b, bg);
     eprintln!("far torus 160x90: dense vs sparse PSNR {p:.1} dB");
-    assert!(p >= 25.0, "PSNR {p:.1} dB");
+    assert!(p >= 28.0, "PSNR {p:.1} dB");
     // One splat far smaller than a pixel still shows.
     let mut r = SoftwareRenderer::new(64, 48).unwrap();
     let cam = Camera::framing([-1.0; 3], [1.0; 3], [0.0, 0.0, -1.0]);
