@@ -9,7 +9,7 @@ use sim_core::csg::{CsgOptions, Solid, csg};
 use sim_core::resample::{UpsampleOptions, downsample, spacing, upsample};
 use sim_core::scene::{Scene, SceneObject};
 use sim_core::tools::Rope;
-use sim_core::tools::emboss::{Emboss, GreyImage, emboss};
+use sim_core::tools::emboss::{Emboss, GreyImage, detail_insertions, emboss};
 use sim_core::tools::paint::{Brush, edge_insertions, paint};
 
 use super::script::{Op, Release, profile_of};
@@ -152,11 +152,22 @@ pub(crate) fn run_op(
                 depth: *depth,
             };
             let mut o = scene.objects()[oid].clone();
+            // Points where the image has edges first, so the relief resolves them.
+            let h = sim_core::resample::spacing(&o.positions);
+            let added = detail_insertions(&op, &o.positions, &o.normals, &o.field, h)?;
+            for a in &added {
+                o.colors.push(o.colors[a.parent]);
+                o.positions.push(a.position);
+                o.normals.push(a.normal);
+            }
             let moved = emboss(&op, &mut o.positions, &mut o.normals, &o.field, None)?;
             scene.replace_points(oid, point_set(&o), fit)?;
             (
                 "emboss",
-                format!("{moved} points displaced, field refitted"),
+                format!(
+                    "{moved} points displaced ({} added along the image's edges), field refitted",
+                    added.len()
+                ),
             )
         }
         Op::Csg { op, a, b, result } => {
