@@ -43,6 +43,19 @@ pub const CUT_SLACK: f32 = 1.0;
 /// front's splats into a normal facing the eye (the light flecks along outlines: sparse/dense
 /// gradient energy over the torus's frame 1.47, against 1.26 when kept).
 pub const TURN_BELOW: f32 = 0.3;
+/// [`Splat::cell_growth`] applies in full where the cosine between the splat's normal and the
+/// eye is at least `GROW_FULL`, not at all below `GROW_FROM`, smoothly between.
+pub const GROW_FROM: f32 = 0.6;
+/// See [`GROW_FROM`].
+pub const GROW_FULL: f32 = 0.9;
+
+/// The factor on `s`'s semi-axes seen at cosine `c` between its normal and the eye.
+#[inline]
+pub(crate) fn growth(cell_growth: f32, c: f32) -> f32 {
+    let t = ((c - GROW_FROM) / (GROW_FULL - GROW_FROM)).clamp(0.0, 1.0);
+    1.0 + (cell_growth.max(1.0) - 1.0) * t * t * (3.0 - 2.0 * t)
+}
+
 /// Pixels whose summed weight is below this show the background (a covered pixel has ≥ e^-2).
 pub const MIN_WEIGHT: f32 = 1e-5;
 
@@ -173,13 +186,14 @@ pub(crate) fn setup(s: &Splat, f: &FrameParams) -> Option<SplatSetup> {
         return None;
     }
     let turned = facing < -TURN_BELOW * to_eye.length();
-    let a = s.radius;
+    let grow = growth(s.cell_growth, facing.abs() / to_eye.length().max(1e-30));
+    let a = s.radius * grow;
     let axis = Vec3::from(s.axis);
     let ax = axis - n * axis.dot(n);
     let ax2 = ax.dot(ax);
     let (du, dv, b) = if ax2 > 1e-12 {
         let t = ax / ax2.sqrt();
-        (t, n.cross(t), s.minor_radius)
+        (t, n.cross(t), s.minor_radius * grow)
     } else {
         (t1, t2, a)
     };
@@ -513,8 +527,14 @@ mod tests {
     }
 
     #[test]
-    fn the_shader_cuts_with_the_same_slack() {
+    fn the_shader_cuts_and_grows_with_the_same_constants() {
         let wgsl = include_str!("shaders.wgsl");
+        for (name, value) in [("GROW_FROM", GROW_FROM), ("GROW_FULL", GROW_FULL)] {
+            assert!(
+                wgsl.contains(&format!("const {name}: f32 = {value:?};")),
+                "shaders.wgsl's {name} differs from ewa::{name}"
+            );
+        }
         assert!(
             wgsl.contains(&format!("const CUT_SLACK: f32 = {CUT_SLACK:?};")),
             "shaders.wgsl's CUT_SLACK differs from ewa::CUT_SLACK"

@@ -37,8 +37,12 @@ pub struct Splat {
     /// `½(k_aa x² + 2 k_ab x y + k_bb y²)` below the splat's plane (positive: it bends away
     /// from the normal, as a convex surface with outward normals). Ignored when `axis` is zero.
     pub curvature: [f32; 3],
-    /// Unused (keeps the struct 64 bytes, four 16-byte rows for the GPU).
-    pub pad: f32,
+    /// Factor on both semi-axes where the splat faces the eye (1, or 0: none): enough to
+    /// reach the corners of its point's Voronoi cell, so the gaps of a random sampling are
+    /// covered ([`splat_shape`]). Applied fully where the eye is within ~53° of the normal and
+    /// not at all beyond ~73° ([`crate::ewa`]): grown splats near an outline would reach
+    /// further past it. Keeps the struct 64 bytes, four 16-byte rows for the GPU.
+    pub cell_growth: f32,
 }
 
 impl Splat {
@@ -52,7 +56,7 @@ impl Splat {
             axis: [0.0; 3],
             minor_radius: radius,
             curvature: [0.0; 3],
-            pad: 0.0,
+            cell_growth: 1.0,
         }
     }
 
@@ -74,7 +78,7 @@ impl Splat {
             axis,
             minor_radius,
             curvature: [0.0; 3],
-            pad: 0.0,
+            cell_growth: 1.0,
         }
     }
 
@@ -87,6 +91,7 @@ impl Splat {
     ) -> Self {
         Self {
             curvature: shape.curvature,
+            cell_growth: shape.cell_growth,
             ..Self::ellipse(
                 position,
                 normal,
@@ -110,6 +115,7 @@ impl Splat {
             && self.radius >= 0.0
             && self.minor_radius.is_finite()
             && self.minor_radius >= 0.0
+            && self.cell_growth.is_finite()
     }
 }
 

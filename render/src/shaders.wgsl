@@ -27,7 +27,7 @@ struct Frame {
 @group(0) @binding(0) var<uniform> frame: Frame;
 // The splats as uploaded (`Splat`, 64 bytes):
 // [p.x, p.y, p.z, n.x], [n.y, n.z, radius, rgba8], [axis.x, axis.y, axis.z, minor_radius],
-// [k_aa, k_ab, k_bb, pad] (curvature).
+// [k_aa, k_ab, k_bb, cell_growth] (curvature, and the growth where the splat faces the eye).
 @group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
 // The attribute pass's sums, read by the normalisation pass.
 @group(1) @binding(0) var accum_color: texture_2d<f32>;
@@ -71,9 +71,18 @@ struct Ewa {
     normal: vec3<f32>,
 };
 
-// `ewa::CUT_SLACK` and `ewa::TURN_BELOW` (a test checks they agree).
+// `ewa::CUT_SLACK`, `TURN_BELOW`, `GROW_FROM` and `GROW_FULL` (a test checks they agree).
 const CUT_SLACK: f32 = 1.0;
 const TURN_BELOW: f32 = 0.3;
+const GROW_FROM: f32 = 0.6;
+const GROW_FULL: f32 = 0.9;
+
+// `ewa::growth`: the factor on a splat's semi-axes seen at cosine `c` between its normal and
+// the eye.
+fn growth(cell_growth: f32, c: f32) -> f32 {
+    let t = clamp((c - GROW_FROM) / (GROW_FULL - GROW_FROM), 0.0, 1.0);
+    return 1.0 + (max(cell_growth, 1.0) - 1.0) * t * t * (3.0 - 2.0 * t);
+}
 
 // `ewa::Silhouette`.
 struct Silhouette {
@@ -192,7 +201,8 @@ fn ewa_setup(i: u32) -> Ewa {
         return e;
     }
     let turned = facing < -TURN_BELOW * length(to_eye);
-    let ra = b4.z;
+    let grow = growth(d4.w, abs(facing) / max(length(to_eye), 1e-30));
+    let ra = b4.z * grow;
     let axis = c4.xyz;
     let ax = axis - n * dot(axis, n);
     let ax2 = dot(ax, ax);
@@ -202,7 +212,7 @@ fn ewa_setup(i: u32) -> Ewa {
     if ax2 > 1e-12 {
         du = ax / sqrt(ax2);
         dv = cross(n, du);
-        rb = c4.w;
+        rb = c4.w * grow;
     }
     if !(ra > 0.0 && rb > 0.0) {
         return e;

@@ -24,6 +24,9 @@ pub struct SplatShape {
     /// The surface's normal curvatures in the frame `(axis, normal × axis)`, 1/m
     /// ([`Splat::curvature`](crate::Splat::curvature)).
     pub curvature: [f32; 3],
+    /// Factor ≥ 1 on both semi-axes that reaches the corners of the point's Voronoi cell
+    /// ([`Splat::cell_growth`](crate::Splat::cell_growth)).
+    pub cell_growth: f32,
 }
 
 /// The elliptical splat of the point `position` with unit `normal`, from the positions of its
@@ -38,7 +41,13 @@ pub struct SplatShape {
 ///    point): the major axis along the larger spread, aspect `sqrt(λ₂/λ₁)` clamped to
 ///    [`MIN_SPLAT_ASPECT`]..1 (isotropic when exactly 1);
 /// 3. the **size**: the smallest ellipse of that shape containing every ring neighbour, times
-///    [`SPLAT_OVERLAP`] = 0.7. The midpoint to each ring neighbour is then at elliptical
+///    [`SPLAT_OVERLAP`]; and the factor ([`SplatShape::cell_growth`], at most
+///    [`MAX_CELL_GROWTH`]) by which it must grow to reach the corners of the point's Voronoi
+///    cell among all the neighbours with [`CORNER_MARGIN`], which the renderer applies where
+///    the splat faces the eye. Every corner of a cell is a corner of its neighbours' cells
+///    too, so the grown splats cover the gaps between random samples (a 6,000-point random
+///    sphere showed the back of the object through a few of them). The midpoint to each ring
+///    neighbour is at elliptical
 ///    distance ≈ 0.71 from both splats (weight ≈ 0.27 each, see [`GAUSS_K`](crate::GAUSS_K)),
 ///    so neighbouring splats overlap across every gap of the ring; larger factors cover more
 ///    but make the tangent ellipses protrude further past silhouettes (a bulge of r²/2R on a
@@ -73,6 +82,8 @@ pub fn splat_shape(
         }
     }
     let curvature = fit_curvature(&offsets[..count], &heights[..count]);
+    let all = offsets;
+    let offsets_all = &all[..count];
     let offsets = &mut offsets[..count];
     offsets.sort_by(|a, b| a.length_squared().total_cmp(&b.length_squared()));
     let mut nearest = [DVec2::ZERO; COVER_NEIGHBOURS];
@@ -112,12 +123,22 @@ pub fn splat_shape(
     } else {
         (l2 / l1).sqrt().clamp(f64::from(MIN_SPLAT_ASPECT), 1.0)
     };
-    // 3. The smallest ellipse of that shape holding the ring.
+    // 3. The smallest ellipse of that shape holding the ring, grown to the point's Voronoi
+    // cell's corners.
+    let elliptic = |u: DVec2| u.dot(e1).hypot(u.dot(e2) / aspect);
     let reach = ring
         .iter()
         .chain(&nearest[..n_nearest])
-        .map(|u| u.dot(e1).hypot(u.dot(e2) / aspect))
+        .map(|&u| elliptic(u))
         .fold(0.0, f64::max);
+    let corners = voronoi_corners(offsets_all)
+        .map(elliptic)
+        .fold(0.0, f64::max);
+    let cell_growth = if reach > 0.0 {
+        (CORNER_MARGIN * corners / reach).clamp(1.0, MAX_CELL_GROWTH)
+    } else {
+        1.0
+    };
     let radius = f64::from(SPLAT_OVERLAP) * reach;
     // The curvature is expressed in the ellipse's frame, so the axis is kept even when the
     // ellipse is round (then `e1` is `t1`).
@@ -134,7 +155,58 @@ pub fn splat_shape(
         radius: radius as f32,
         minor_radius: (radius * aspect) as f32,
         curvature: [k_aa as f32, k_ab as f32, k_bb as f32],
+        cell_growth: cell_growth as f32,
     })
+}
+
+/// At most this factor on the ring's ellipse when growing it to the Voronoi cell's corners
+/// (a cell open towards a boundary, or whose far neighbours are not among those given, has
+/// corners far out).
+pub const MAX_CELL_GROWTH: f64 = 1.3;
+/// A cell's corners are reached with this margin: the weight falls to zero at the ellipse's
+/// edge, and a corner exactly on it would stay a pixel-sized hole.
+pub const CORNER_MARGIN: f64 = 1.05;
+
+/// Most corners a clipped cell keeps (a cell among 32 neighbours has at most 32).
+const MAX_CELL_CORNERS: usize = MAX_SHAPE_NEIGHBOURS + 4;
+
+/// The corners of the point's tangent-plane Voronoi cell among `neighbours` (offsets from the
+/// point): a square around the point clipped by the bisector of each neighbour; corners still
+/// on the square (the cell is open there, at a boundary, or the neighbours do not reach) are
+/// left out.
+fn voronoi_corners(neighbours: &[DVec2]) -> impl Iterator<Item = DVec2> {
+    let far = 2.0 * neighbours.iter().map(|u| u.length()).fold(0.0, f64::max);
+    let mut cell = [DVec2::ZERO; MAX_CELL_CORNERS];
+    let mut next = [DVec2::ZERO; MAX_CELL_CORNERS];
+    cell[..4].copy_from_slice(&[
+        DVec2::new(-far, -far),
+        DVec2::new(far, -far),
+        DVec2::new(far, far),
+        DVec2::new(-far, far),
+    ]);
+    let mut n = if far > 0.0 { 4 } else { 0 };
+    for &u in neighbours {
+        // Keep x·u ≤ |u|²/2 (Sutherland–Hodgman against one half-plane).
+        let (h, mut m) = (0.5 * u.length_squared(), 0);
+        for k in 0..n {
+            let (a, b) = (cell[k], cell[(k + 1) % n]);
+            let (da, db) = (a.dot(u) - h, b.dot(u) - h);
+            if da <= 0.0 && m < MAX_CELL_CORNERS {
+                next[m] = a;
+                m += 1;
+            }
+            if (da < 0.0) != (db < 0.0) && da != db && m < MAX_CELL_CORNERS {
+                next[m] = a + (b - a) * (da / (da - db));
+                m += 1;
+            }
+        }
+        cell[..m].copy_from_slice(&next[..m]);
+        n = m;
+    }
+    let open = 0.99 * far;
+    (0..n)
+        .map(move |k| cell[k])
+        .filter(move |c| c.x.abs().max(c.y.abs()) < open)
 }
 
 /// `(k_xx, k_xy, k_yy)` of the least-squares fit `h ≈ −½(k_xx x² + 2k_xy xy + k_yy y²)` to

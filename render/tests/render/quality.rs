@@ -211,9 +211,9 @@ fn edge_stats(profile: &[(f32, f32)]) -> (f32, f32) {
 /// wanders < 0.5 h (RMS) from a straight line and the 10–90 % transition is < 2 h wide, `h` the
 /// sparse spacing in pixels (measured: 0.3 h and 1.75 h; the Gaussian's σ is half a splat
 /// radius, ~h/2, and the samples' own randomness puts the reconstructed edge ~h/3 off the
-/// line). The dense sampling's edge is within a pixel of straight and < 3 px wide. A Poisson
-/// sampling leaves some gaps wider than its splats reach (DESIGN §6b: resample): at most 20
-/// hole pixels in the measured window (measured: one gap of 12).
+/// line). The dense sampling's edge is within a pixel of straight and < 3 px wide. The
+/// Poisson sampling's gaps are covered (splats grow to their Voronoi cells' corners where they
+/// face the eye; before that one gap of 12 pixels stayed open): no hole pixel.
 #[test]
 fn paint_edge_stays_an_edge() {
     let l = 0.05;
@@ -265,7 +265,7 @@ fn paint_edge_stays_an_edge() {
         width_a < 2.0 * h,
         "edge {width_a:.2} px wide (spacing {h:.1} px)"
     );
-    assert!(holes <= 20, "{holes} hole pixels");
+    assert_eq!(holes, 0, "{holes} hole pixels");
     assert!(
         rms_b < 1.0 && width_b < 3.0,
         "dense edge {rms_b:.2} px, {width_b:.2} px"
@@ -348,4 +348,44 @@ fn a_thinned_splat_set_draws_the_same_shape_without_holes() {
     );
     assert_eq!(holes, 0);
     assert!(psnr >= 40.0, "{psnr}");
+}
+
+/// A random sampling leaves gaps wider than its neighbours' ellipses reach (issue 19: the
+/// demo's 6,000-point random ball showed the back of the object through one, a light fleck in
+/// the middle of a paint stroke). Splats grow to their Voronoi cells' corners where they face
+/// the eye (`Splat::cell_growth`), so no pixel of the front shows the back: the back half of a
+/// random sphere is blue, the front white, seen face on; inside the front's disc (away from
+/// its outline, where growth fades out) not one blue pixel. Without the growth the second seed
+/// shows 9.
+#[test]
+fn the_gaps_of_a_random_sampling_never_show_the_back() {
+    for seed in [11, 12, 13] {
+        let mut samples = scenes::ellipsoid_random(6_000, Vec3::splat(0.05), seed, [230; 4]);
+        for s in &mut samples {
+            if s.0.z < 0.0 {
+                s.2 = [0, 0, 255, 255];
+            }
+        }
+        let camera = Camera::framing([-0.05; 3], [0.05; 3], [0.0, 0.0, -1.0]);
+        let img = render(&scenes::splats(&samples), &camera, (W, H));
+        save(&img, &format!("gaps_{seed}"));
+        let c = camera.project([0.0, 0.0, 0.05], W, H).unwrap();
+        let edge = camera.project([0.05, 0.0, 0.0], W, H).unwrap();
+        // Within 0.8 of the disc's radius the front faces the eye within 53°.
+        let r = 0.8 * (edge[0] - c[0]);
+        let mut blue = 0;
+        for y in 0..H {
+            for x in 0..W {
+                let (dx, dy) = (x as f32 + 0.5 - c[0], y as f32 + 0.5 - c[1]);
+                let p = img.pixel(x, y);
+                if dx.hypot(dy) < r && p[2] > p[0].saturating_add(60) {
+                    blue += 1;
+                }
+            }
+        }
+        assert_eq!(
+            blue, 0,
+            "seed {seed}: {blue} pixels of the back show through the front"
+        );
+    }
 }

@@ -258,6 +258,7 @@ fn splat(p: DVec3, n: DVec3, c: [u8; 3], shape: &NeighbourShape) -> Splat {
     };
     Splat {
         curvature: shape.curvature_along(n),
+        cell_growth: shape.cell_growth,
         ..Splat::ellipse(
             p.as_vec3().to_array(),
             n.as_vec3().to_array(),

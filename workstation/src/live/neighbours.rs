@@ -56,6 +56,8 @@ pub struct NeighbourShape {
     /// The neighbours' own plane normal the shape was computed in (its sign is arbitrary: the
     /// curvature's sign is relative to it).
     pub plane_normal: [f32; 3],
+    /// Growth to the Voronoi cell's corners ([`render::Splat::cell_growth`]).
+    pub cell_growth: f32,
 }
 
 impl NeighbourShape {
@@ -67,6 +69,7 @@ impl NeighbourShape {
             axis: [0.0; 3],
             curvature: [0.0; 3],
             plane_normal: [0.0; 3],
+            cell_growth: 1.0,
         }
     }
 
@@ -114,6 +117,7 @@ impl NeighbourShape {
                 axis: s.axis,
                 curvature: s.curvature,
                 plane_normal,
+                cell_growth: s.cell_growth,
             },
             _ => disk,
         }
