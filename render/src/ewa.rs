@@ -56,6 +56,10 @@ pub(crate) fn growth(cell_growth: f32, c: f32) -> f32 {
     1.0 + (cell_growth.max(1.0) - 1.0) * t * t * (3.0 - 2.0 * t)
 }
 
+/// A pixel next to the background whose blended normal is within this (cosine) of grazing is
+/// on an outline: it takes the grazing normal ([`graze_normal`]), as the surface's is there.
+pub const CONTOUR_BELOW: f32 = 0.5;
+
 /// Pixels whose summed weight is below this show the background (a covered pixel has ≥ e^-2).
 pub const MIN_WEIGHT: f32 = 1e-5;
 
@@ -529,7 +533,11 @@ mod tests {
     #[test]
     fn the_shader_cuts_and_grows_with_the_same_constants() {
         let wgsl = include_str!("shaders.wgsl");
-        for (name, value) in [("GROW_FROM", GROW_FROM), ("GROW_FULL", GROW_FULL)] {
+        for (name, value) in [
+            ("GROW_FROM", GROW_FROM),
+            ("GROW_FULL", GROW_FULL),
+            ("CONTOUR_BELOW", CONTOUR_BELOW),
+        ] {
             assert!(
                 wgsl.contains(&format!("const {name}: f32 = {value:?};")),
                 "shaders.wgsl's {name} differs from ewa::{name}"

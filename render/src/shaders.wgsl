@@ -71,11 +71,13 @@ struct Ewa {
     normal: vec3<f32>,
 };
 
-// `ewa::CUT_SLACK`, `TURN_BELOW`, `GROW_FROM` and `GROW_FULL` (a test checks they agree).
+// `ewa::CUT_SLACK`, `TURN_BELOW`, `GROW_FROM`, `GROW_FULL` and `CONTOUR_BELOW` (a test checks
+// they agree).
 const CUT_SLACK: f32 = 1.0;
 const TURN_BELOW: f32 = 0.3;
 const GROW_FROM: f32 = 0.6;
 const GROW_FULL: f32 = 0.9;
+const CONTOUR_BELOW: f32 = 0.5;
 
 // `ewa::growth`: the factor on a splat's semi-axes seen at cosine `c` between its normal and
 // the eye.
@@ -435,6 +437,15 @@ fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32>
     return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
 }
 
+// Whether nothing weighs at pixel `ip` (outside the target: no).
+fn empty_at(ip: vec2<i32>) -> bool {
+    let dims = vec2<i32>(textureDimensions(accum_color));
+    if ip.x < 0 || ip.y < 0 || ip.x >= dims.x || ip.y >= dims.y {
+        return false;
+    }
+    return textureLoad(accum_color, ip, 0).w < frame.ewa_k.w;
+}
+
 // Pass 3, normalisation: Σw·albedo / Σw, shaded with the normalised Σw·normal; the background
 // (the clear colour) where nothing weighs.
 @fragment
@@ -449,6 +460,13 @@ fn fs_ewa_normalise(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32>
     var n = l;
     if dot(sum_n, sum_n) > 0.0 {
         n = normalize(sum_n);
+    }
+    // Next to the background and near grazing: an outline, where the surface's normal is
+    // perpendicular to the eye.
+    let outline = empty_at(ip + vec2<i32>(-1, 0)) || empty_at(ip + vec2<i32>(1, 0))
+        || empty_at(ip + vec2<i32>(0, -1)) || empty_at(ip + vec2<i32>(0, 1));
+    if outline && abs(dot(n, l)) < CONTOUR_BELOW {
+        n = graze_normal(n, l);
     }
     return vec4<f32>(shade_dir(c.rgb / c.w, n, l), 1.0);
 }

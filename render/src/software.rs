@@ -200,14 +200,29 @@ impl SoftwareRenderer {
         let band_px = (BAND * width) as usize;
         let (setups, refs, starts) = (&self.setups[..], &self.refs[..], &self.band_start[..]);
         let (tris, style) = (&self.tris[..], &self.style);
+        // Visibility and attributes per band, then (the outline test reads the rows around)
+        // normalisation, overlays and encoding per band.
         self.depth[..n]
             .par_chunks_mut(band_px)
             .zip(self.accum[..n].par_chunks_mut(band_px))
+            .enumerate()
+            .for_each(|(b, (depth, accum))| {
+                let ids = &refs[starts[b] as usize..starts[b + 1] as usize];
+                let band = Band {
+                    f: &f,
+                    width,
+                    y0: b as u32 * BAND,
+                    rows: depth.len() as u32 / width,
+                };
+                band.splats(ids, setups, depth, accum);
+            });
+        let accum = &self.accum[..n];
+        self.depth[..n]
+            .par_chunks_mut(band_px)
             .zip(self.color[..n].par_chunks_mut(band_px))
             .zip(image.rgba.par_chunks_mut(band_px * 4))
             .enumerate()
-            .for_each(|(b, (((depth, accum), color), rgba))| {
-                let ids = &refs[starts[b] as usize..starts[b + 1] as usize];
+            .for_each(|(b, ((depth, color), rgba))| {
                 let y0 = b as u32 * BAND;
                 let band = Band {
                     f: &f,
@@ -215,7 +230,6 @@ impl SoftwareRenderer {
                     y0,
                     rows: depth.len() as u32 / width,
                 };
-                band.splats(ids, setups, depth, accum);
                 band.normalise(accum, color, style);
                 raster::draw_band(
                     tris,
@@ -294,7 +308,8 @@ impl Band<'_> {
     }
 
     /// Pass 3: normalisation and deferred headlight shading; the background (linear) where
-    /// nothing weighs.
+    /// nothing weighs. `accum` is the whole frame's (the outline test reads the pixels around);
+    /// `color` this band's.
     fn normalise(&self, accum: &[Accum], color: &mut [Vec4], style: &Style) {
         let light = &style.lighting;
         let [r, g, b, a] = style.background;
@@ -304,15 +319,26 @@ impl Band<'_> {
             srgb_to_linear(b),
             a as f32 / 255.0,
         );
-        for (i, (a, c)) in accum.iter().zip(color.iter_mut()).enumerate() {
+        let (w, h) = (self.width as usize, accum.len() / self.width as usize);
+        let first = self.y0 as usize * w;
+        let empty = |x: usize, y: usize| accum[y * w + x].weight < MIN_WEIGHT;
+        for (k, c) in color.iter_mut().enumerate() {
+            let i = first + k;
+            let a = &accum[i];
             if a.weight < MIN_WEIGHT {
                 *c = bg;
                 continue;
             }
-            let x = (i as u32 % self.width) as f32 + 0.5;
-            let y = (self.y0 + i as u32 / self.width) as f32 + 0.5;
-            let l = self.f.eye_dir(x, y);
-            let n = a.normal.try_normalize().unwrap_or(l);
+            let (px, py) = (i % w, i / w);
+            let l = self.f.eye_dir(px as f32 + 0.5, py as f32 + 0.5);
+            let mut n = a.normal.try_normalize().unwrap_or(l);
+            let outline = (px > 0 && empty(px - 1, py))
+                || (px + 1 < w && empty(px + 1, py))
+                || (py > 0 && empty(px, py - 1))
+                || (py + 1 < h && empty(px, py + 1));
+            if outline && n.dot(l).abs() < ewa::CONTOUR_BELOW {
+                n = ewa::graze_normal(n, l);
+            }
             let albedo = a.color / a.weight;
             let d = n.dot(l).abs().min(1.0);
             *c = Vec3::from(light.shade(albedo.to_array(), d)).extend(1.0);
