@@ -8,9 +8,12 @@
 //! (`x ← x − F ∇F/‖∇F‖²`, each step clamped to one grid spacing) so drift cannot accumulate.
 //!
 //! Normals: a moved point's normal is its own normal at the stroke's start turned by the
-//! sculpted change, `n = (n₀‖∇f_base‖ + ∇Δ_s) / ‖…‖`, with `∇Δ_s` the gradient of the grid
-//! displacements' tricubic (Catmull-Rom) interpolant, continuous across cells, unlike the
-//! trilinear interpolant's own gradient ([`displacement_gradient_smooth`]). `∇F` itself would do in exact
+//! sculpted change, `n = (n₀‖∇f_base‖ + ∇Δ) / ‖…‖`: while the stroke lasts with the trilinear
+//! interpolant's `∇Δ` (free: it is part of `∇F`), and at the commit
+//! ([`Follower::settle_normals`]) with the gradient of the grid displacements' tricubic
+//! (Catmull-Rom) interpolant, continuous across cells, unlike the trilinear one's
+//! ([`displacement_gradient_smooth`]; computed per moved point once, not per step: at 10⁶
+//! points a rope moves ~10⁵ points a step). `∇F` itself would do in exact
 //! arithmetic, but at a dense sampling the blended base field's gradient departs from the
 //! sampled normals by several degrees in patches (on a dense sampling of a coarse mesh it leans
 //! towards the mesh's flat facets), and the trilinear `∇Δ` jumps at every cell face: the
@@ -259,27 +262,32 @@ pub(crate) fn follow_point(
             None => break,
         }
     }
-    let (f, _) = eval(x);
+    let (f, g) = eval(x);
     cache.seen = displacement_at(model, x).map_or(0.0, |(d, _, _)| d);
     if cache.start_normal == DVec3::ZERO {
         cache.start_normal = n0;
     }
-    // In the field's orientation (a point whose normal disagrees with the field keeps its own
-    // orientation).
-    let side = if cache.start_normal.dot(cache.g) < 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
-    let turned = side * cache.start_normal * cache.g.length()
-        + displacement_gradient_smooth(model, x).unwrap_or(DVec3::ZERO);
+    // While the stroke lasts, turned by the trilinear gradient (`g` less the base's), which
+    // costs nothing more; [`Follower::settle_normals`] turns by the smooth one at the commit.
+    let normal = turned_normal(cache.start_normal, cache.g, g - cache.g).unwrap_or(n0);
     Some(PointUpdate {
         position: x,
-        normal: turned.try_normalize().map_or(n0, |n| side * n),
+        normal,
         residual: f.abs(),
         exact,
         cache,
     })
+}
+
+/// `start` (a point's unit normal when the stroke began) turned by the displacement's gradient
+/// `dg`, with the base field's gradient `base` for the scale (the field is distance-like): in
+/// the field's orientation, and back to the point's own (a normal that disagrees with the field
+/// keeps its orientation). `None` when the result vanishes.
+pub(crate) fn turned_normal(start: DVec3, base: DVec3, dg: DVec3) -> Option<DVec3> {
+    let side = if start.dot(base) < 0.0 { -1.0 } else { 1.0 };
+    (side * start * base.length() + dg)
+        .try_normalize()
+        .map(|n| side * n)
 }
 
 /// `δ ∇F/‖∇F‖²` clamped to length `h`; `None` for a vanishing or non-finite gradient.

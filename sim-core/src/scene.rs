@@ -455,6 +455,9 @@ impl Scene {
         let region = self.region.as_mut().ok_or(SceneError::NoRegion)?;
         let obj = &mut self.objects[region.object];
         region.catch_up(obj);
+        region
+            .follower
+            .settle_normals(&region.model, &obj.positions, &mut obj.normals);
         let base = region
             .base
             .take()

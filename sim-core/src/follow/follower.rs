@@ -247,6 +247,30 @@ impl Follower {
         report
     }
 
+    /// Turn the moved points' normals by the smooth gradient of the displacements (the module
+    /// doc of [`crate::follow`]): call at the end of a stroke, before the model commits (the
+    /// displacements are what turns them). O(moved points), in parallel; points the follower
+    /// left stranded keep theirs.
+    pub fn settle_normals(&self, model: &DynamicGrid, points: &[DVec3], normals: &mut [DVec3]) {
+        let turned: Vec<(u32, DVec3)> = self
+            .moved
+            .par_iter()
+            .with_min_len(256)
+            .filter_map(|&i| {
+                let iu = i as usize;
+                let c = self.cache.get(iu)?;
+                if c.start_normal == DVec3::ZERO || self.is_stranded(iu) {
+                    return None;
+                }
+                let dg = super::displacement_gradient_smooth(model, *points.get(iu)?)?;
+                super::turned_normal(c.start_normal, c.g, dg).map(|n| (i, n))
+            })
+            .collect();
+        for (i, n) in turned {
+            normals[i as usize] = n;
+        }
+    }
+
     fn block_of(&self, model: &DynamicGrid, x: DVec3) -> usize {
         let spec = model.spec();
         let g = ((x - spec.origin) / (spec.spacing * BLOCK as f64)).floor();
