@@ -5,7 +5,7 @@
 
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use protocol::control::Stats;
@@ -14,7 +14,7 @@ use tokio::sync::watch;
 
 use crate::clock::MonoClock;
 use crate::device::Device;
-use crate::servo::driver::{self, CursorSink, DriverConfig, ServoThreads};
+use crate::servo::driver::{self, CursorSink, DriverConfig, RingWaker, ServoThreads};
 use crate::servo::hot_socket::HotSocket;
 use crate::servo::rt::RtRequest;
 use crate::servo::{SafetyParams, ServoParams};
@@ -97,6 +97,17 @@ pub enum ServerError {
 }
 
 /// A running server; dropping it shuts it down (force to zero first).
+/// `SCHED_FIFO` priority of the network worker on QUIC, where quinn's endpoint (receiving,
+/// decrypting, acknowledging) and the cursor sender run: below the servo (80) and below the
+/// workstation's force-mapping thread (60), so on one machine neither waits for it, and above
+/// every ordinary thread. In the one-machine demo (a simulation and a renderer busy on both
+/// cores) an ordinary worker held commands past their servo tick: 98.6–99.0 % of ticks
+/// applied the answer to the previous cursor, p99 round trip 1.0–1.1 ms, against 99.97–100 %
+/// and 0.17–0.22 ms real-time. An idle machine's latency runs pay for it at the median (75–92
+/// → 100–124 µs: woken real-time, the worker is pushed to the other CPU, a cold wake-up on
+/// this VM), not at the tick.
+pub const QUIC_NETWORK_FIFO_PRIORITY: i32 = 50;
+
 #[derive(Debug)]
 pub struct Server {
     local_addr: SocketAddr,
@@ -106,8 +117,6 @@ pub struct Server {
     shutdown: watch::Sender<bool>,
     runtime: Option<std::thread::JoinHandle<()>>,
     servo: ServoThreads,
-    sender_stop: Arc<AtomicBool>,
-    sender: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Server {
@@ -120,21 +129,29 @@ impl Server {
         let mut driver_cfg = opts.driver.clone();
         driver_cfg.params = driver_cfg.params.limited_to(&info);
         let params = driver_cfg.params;
-        // The servo thread reads the UDP hot path itself. QUIC's receiving is quinn's whole
-        // endpoint driver (decryption, acknowledgements, timers) on the network worker: raised
-        // to SCHED_FIFO, with the QUIC sender, it took the cores from the workstation's force
-        // thread in the one-machine demo (next tick 71-93 % against 84-92 % without), so both
-        // stay ordinary threads.
-        let runtime = tokio::runtime::Builder::new_multi_thread()
+        // The network worker runs every task: the TLS control channel on UDP (the servo reads
+        // the UDP hot path itself); on QUIC also quinn's endpoint (receiving, decrypting,
+        // acknowledging) and the cursor sender, so a datagram's arrival or a cursor's departure
+        // wakes this one thread. On QUIC it runs real-time ([`QUIC_NETWORK_FIFO_PRIORITY`]).
+        // A current-thread runtime instead was slower (QUIC round trip p50 117–142 µs against
+        // 75–92 µs, same session): woken tasks wait behind the queue instead of running next.
+        let mut builder = tokio::runtime::Builder::new_multi_thread();
+        builder
             .worker_threads(1)
             .thread_name("network")
-            .enable_all()
-            .build()?;
+            .enable_all();
+        if opts.transport == TransportKind::Quic && opts.driver.rt.fifo_priority.is_some() {
+            builder.on_thread_start(|| {
+                if let Err(e) = crate::servo::rt::set_fifo(QUIC_NETWORK_FIFO_PRIORITY) {
+                    tracing::warn!("the QUIC network worker stays SCHED_OTHER: {e}");
+                }
+            });
+        }
+        let runtime = builder.build()?;
         let tls_cfg = tls::server_config(&opts.identity)?;
         let clock = MonoClock::new();
         let (shutdown, shutdown_rx) = watch::channel(false);
-        let sender_stop = Arc::new(AtomicBool::new(false));
-        let (local_addr, shared, servo, sender) = match opts.transport {
+        let (local_addr, shared, servo) = match opts.transport {
             TransportKind::Udp => {
                 let (tcp, sock) = udp::bind(opts.listen)?;
                 let local_addr = tcp.local_addr()?;
@@ -151,7 +168,7 @@ impl Server {
                 ));
                 let _guard = runtime.enter();
                 runtime.spawn(udp::run(Arc::clone(&shared), tcp, tls_cfg, shutdown_rx));
-                (local_addr, shared, servo, None)
+                (local_addr, shared, servo)
             }
             TransportKind::Quic => {
                 let endpoint = {
@@ -161,13 +178,12 @@ impl Server {
                 let local_addr = endpoint.local_addr()?;
                 let current: quic::Current = Arc::default();
                 let (tx, rx) = rtrb::RingBuffer::new(64);
-                let sender = {
-                    let (current, stop) = (Arc::clone(&current), Arc::clone(&sender_stop));
-                    std::thread::Builder::new()
-                        .name("quic-sender".into())
-                        .spawn(move || quic::sender(rx, current, stop))?
-                };
-                let sink = CursorSink::Ring(tx, sender.thread().clone());
+                let (waker, wake) = RingWaker::pair()?;
+                {
+                    let _guard = runtime.enter();
+                    runtime.spawn(quic::sender(rx, wake, Arc::clone(&current)));
+                }
+                let sink = CursorSink::Ring(tx, waker);
                 let (link, servo) = driver::spawn(device, sink, driver_cfg, clock)?;
                 let shared = Arc::new(Shared::new(
                     clock,
@@ -184,7 +200,7 @@ impl Server {
                     current,
                     shutdown_rx,
                 ));
-                (local_addr, shared, servo, Some(sender))
+                (local_addr, shared, servo)
             }
         };
         // The runtime lives on a thread of its own, so a server can be dropped anywhere
@@ -206,8 +222,6 @@ impl Server {
             shutdown,
             runtime: Some(runtime),
             servo,
-            sender_stop,
-            sender,
         })
     }
 
@@ -275,11 +289,6 @@ impl Server {
             let _ = rt.join();
         }
         self.servo.stop();
-        self.sender_stop.store(true, Ordering::Release);
-        if let Some(h) = self.sender.take() {
-            h.thread().unpark();
-            let _ = h.join();
-        }
     }
 }
 

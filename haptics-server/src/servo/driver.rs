@@ -46,7 +46,7 @@ pub enum ServoMsg {
     End,
 }
 
-/// One encoded cursor packet on its way to the QUIC sender thread.
+/// One encoded cursor packet on its way to the QUIC sender task.
 #[derive(Debug, Clone, Copy)]
 pub struct Datagram {
     /// Valid bytes in `bytes`.
@@ -62,8 +62,31 @@ pub enum CursorSink {
     None,
     /// The UDP hot-path socket, read and written by the servo thread alone.
     Udp(Box<HotSocket>),
-    /// A ring drained by a sender thread, which is unparked after each push.
-    Ring(rtrb::Producer<Datagram>, std::thread::Thread),
+    /// A ring drained by the QUIC sender task, woken after each push by a byte on a datagram
+    /// socket its runtime watches ([`RingWaker`]).
+    Ring(rtrb::Producer<Datagram>, RingWaker),
+}
+
+/// The servo's end of a datagram socket pair: one non-blocking send of one byte wakes the
+/// task on the other end (registered with its runtime's reactor): a system call and no lock,
+/// like the UDP path's own send, and no thread between the servo and quinn. A full socket
+/// buffer (the task behind) is ignored: a pending byte wakes it all the same.
+#[derive(Debug)]
+pub struct RingWaker(std::os::unix::net::UnixDatagram);
+
+impl RingWaker {
+    /// A connected pair: the waker, and the end the sender task reads (non-blocking both).
+    pub fn pair() -> std::io::Result<(Self, std::os::unix::net::UnixDatagram)> {
+        let (a, b) = std::os::unix::net::UnixDatagram::pair()?;
+        a.set_nonblocking(true)?;
+        b.set_nonblocking(true)?;
+        Ok((Self(a), b))
+    }
+
+    /// Wake the task.
+    pub fn wake(&self) {
+        let _ = self.0.send(&[1]);
+    }
 }
 
 /// The network side's handle on the servo thread.
@@ -385,7 +408,7 @@ impl Loop {
                 };
                 d.len = outbound.encode(now_ns, Body::Cursor(*cursor), &mut d.bytes);
                 let ok = producer.push(d).is_ok();
-                waker.unpark();
+                waker.wake();
                 ok
             }
         }
@@ -415,9 +438,10 @@ mod tests {
             estop_button_mask: 0,
             passivity: false,
         };
+        let (waker, _wake) = RingWaker::pair().unwrap();
         let mut lp = Loop {
             core: ServoCore::new(params),
-            sink: CursorSink::Ring(tx, std::thread::current()),
+            sink: CursorSink::Ring(tx, waker),
             outbound: None,
             command_rx,
             event_rx,

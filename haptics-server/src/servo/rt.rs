@@ -66,8 +66,9 @@ pub fn setup_current_thread(req: RtRequest) -> RtReport {
     report
 }
 
+/// Run the calling thread `SCHED_FIFO` at `priority`.
 #[cfg(target_os = "linux")]
-fn set_fifo(priority: i32) -> std::io::Result<()> {
+pub fn set_fifo(priority: i32) -> std::io::Result<()> {
     let param = libc::sched_param {
         sched_priority: priority,
     };
@@ -91,8 +92,9 @@ fn lock_memory() -> std::io::Result<()> {
     }
 }
 
+/// Run the calling thread `SCHED_FIFO` at `priority` (Linux only).
 #[cfg(not(target_os = "linux"))]
-fn set_fifo(_priority: i32) -> std::io::Result<()> {
+pub fn set_fifo(_priority: i32) -> std::io::Result<()> {
     Err(std::io::Error::other("SCHED_FIFO is Linux-only here"))
 }
 

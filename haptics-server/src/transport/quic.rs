@@ -3,11 +3,13 @@
 //!
 //! Tuned for latency: datagram send and receive buffers hold only a few packets, so when the
 //! path stalls stale samples are dropped, not queued. Cursor packets reach quinn through a
-//! sender thread that the servo thread unparks after pushing to a wait-free ring; quinn's
-//! `send_datagram` (which locks the connection) never runs on the servo thread.
+//! sender task on the network runtime's one worker, beside quinn's own drivers: the servo
+//! pushes each to a wait-free ring and wakes the task with one byte on a datagram socket the
+//! runtime watches ([`crate::servo::driver::RingWaker`]), so the cursor's way out wakes one
+//! thread (it was a sender thread, then the worker: two); quinn's `send_datagram` (which locks
+//! the connection) never runs on the servo thread.
 
 use std::net::SocketAddr;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -36,12 +38,36 @@ pub fn endpoint(
 /// The connection cursor packets currently go to.
 pub type Current = Arc<Mutex<Option<quinn::Connection>>>;
 
-/// The sender thread: drains the servo's cursor ring into the current connection.
-pub fn sender(mut rx: rtrb::Consumer<Datagram>, current: Current, stop: Arc<AtomicBool>) {
+/// The sender task: each time the servo's byte arrives on `wake`, drains the servo's cursor
+/// ring into the current connection. Runs until the socket fails (the servo's end dropped) or
+/// the runtime shuts down.
+pub async fn sender(
+    mut rx: rtrb::Consumer<Datagram>,
+    wake: std::os::unix::net::UnixDatagram,
+    current: Current,
+) {
+    let wake = match tokio::net::UnixDatagram::from_std(wake) {
+        Ok(w) => w,
+        Err(e) => {
+            tracing::error!("QUIC cursor sender: {e}");
+            return;
+        }
+    };
     // Each datagram's `Bytes` is cut from a reused block: no allocation per cursor.
     let mut arena = haptics_client::quic::DatagramArena::new();
-    while !stop.load(Ordering::Acquire) {
-        std::thread::park_timeout(Duration::from_millis(50));
+    let mut byte = [0u8; 64];
+    loop {
+        if wake.readable().await.is_err() {
+            return;
+        }
+        // Take every pending wake-up byte, then every queued cursor.
+        loop {
+            match wake.try_recv(&mut byte) {
+                Ok(_) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                Err(_) => return,
+            }
+        }
         while let Ok(d) = rx.pop() {
             let conn = current.lock().ok().and_then(|c| c.clone());
             if let Some(conn) = conn {
