@@ -279,15 +279,13 @@ pub struct HotLink {
     pub receiver: Option<BlockingReceiver>,
 }
 
-/// The ends of the force thread's hand-offs.
+/// The ends of the force thread's hand-offs (its events ring is the [`ForceLoop`]'s).
 #[derive(Debug)]
 pub struct ForcePorts {
     /// Cursors from the network side.
     pub cursors: rtrb::Consumer<CursorMsg>,
     /// A fresh hot path after each (re)connect, `None` when the session ended.
     pub senders: rtrb::Consumer<Option<HotLink>>,
-    /// Events to the simulation.
-    pub events: rtrb::Producer<InputEvent>,
 }
 
 /// Period and work statistics of a loop, histograms sized once (no allocation per tick);
@@ -415,28 +413,112 @@ pub fn deadband_gate(
     deadband.should_send(now_ns, command)
 }
 
+/// What the force-mapping loop keeps between cursors: the core, the simulation's event ring,
+/// the session's sender, the deadband and the loop's statistics. [`run`] drives it from its
+/// own thread (UDP, the mouse); on QUIC the network thread drives it itself
+/// ([`super::net`]), so a cursor quinn delivers is answered on the thread it arrived on.
+#[derive(Debug)]
+pub struct ForceLoop {
+    mapper: ForceMapper,
+    events: rtrb::Producer<InputEvent>,
+    sender: Option<HotSender>,
+    clock: LoopTimer,
+    deadband: ForceDeadband,
+    epoch: Instant,
+}
+
+impl ForceLoop {
+    /// A loop around `mapper` feeding `events`, without a session.
+    pub fn new(mapper: ForceMapper, events: rtrb::Producer<InputEvent>) -> Self {
+        Self {
+            mapper,
+            events,
+            sender: None,
+            clock: LoopTimer::new(),
+            deadband: ForceDeadband::new(0.0),
+            epoch: Instant::now(),
+        }
+    }
+
+    /// A new session's sender (`None`: the session ended; forces are computed, not sent).
+    pub fn set_session(&mut self, sender: Option<HotSender>) {
+        // Rare (once per session); dropping an old sender here is the one free on this path.
+        self.sender = sender;
+        self.mapper.new_session();
+        self.deadband.reset();
+    }
+
+    /// Map the newest cursor `msg` (`skipped` older ones were passed over): admit it, compute
+    /// the force from the newest snapshots, send it (unless the deadband holds it), push the
+    /// simulation's event, record the loop's statistics. No allocation, no lock but quinn's
+    /// connection lock inside `send_datagram` on QUIC.
+    pub fn step(&mut self, msg: CursorMsg, skipped: u64, shared: &Shared) {
+        if skipped > 0 {
+            shared
+                .net
+                .cursors_skipped
+                .fetch_add(skipped, Ordering::Relaxed);
+        }
+        if !self.mapper.admit(&msg.cursor) {
+            shared.net.cursors_late.fetch_add(1, Ordering::Relaxed);
+            return;
+        }
+        let start = Instant::now();
+        let field = shared.field.load();
+        let samples = shared.samples.load();
+        let tool = shared.tool.load();
+        let (out, event) =
+            self.mapper
+                .tick(&msg.cursor, field.as_deref(), samples.as_deref(), &tool);
+        drop((field, samples, tool));
+
+        let cmd = out.to_command(msg.packet_sequence, msg.server_timestamp_ns);
+        let now_ns = start.duration_since(self.epoch).as_nanos() as u64;
+        let k = shared.net.force_deadband.get();
+        if self.sender.is_some() && !deadband_gate(&mut self.deadband, k, now_ns, &cmd) {
+            shared.net.forces_held.fetch_add(1, Ordering::Relaxed);
+        } else if let Some(s) = &mut self.sender {
+            match s.send_force(&cmd) {
+                Ok(()) => {
+                    shared.net.forces_sent.fetch_add(1, Ordering::Relaxed);
+                    if let Some((sequence, _)) = s.last_sent() {
+                        shared.net.applied.sent(sequence, msg.cursor.servo_tick);
+                    }
+                }
+                Err(ClientError::Closed) => self.sender = None,
+                Err(e) => tracing::debug!("force command not sent: {e}"),
+            }
+        }
+        shared.haptic.record(&event);
+        if self.events.push(event).is_err() {
+            shared.events_dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        let end = Instant::now();
+        shared.net.turnaround_ns.store(
+            end.duration_since(msg.received).as_nanos() as u64,
+            Ordering::Relaxed,
+        );
+        self.clock.tick(start, end, &shared.force_loop);
+    }
+}
+
 /// The thread body: runs until `shared` says stop.
-pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) {
+pub fn run(mut force: ForceLoop, mut ports: ForcePorts, shared: Arc<Shared>) {
     let priority = raise_priority();
     tracing::info!(priority, "force-mapping thread started");
-    let mut sender: Option<HotSender> = None;
     let mut receiver: Option<BlockingReceiver> = None;
-    let mut clock = LoopTimer::new();
-    let mut deadband = ForceDeadband::new(0.0);
-    let epoch = Instant::now();
     while !shared.stopping() {
         while let Ok(link) = ports.senders.pop() {
-            // Rare (once per session); dropping an old sender here is the one free on this path.
-            (sender, receiver) = match link {
+            let (sender, rx) = match link {
                 Some(l) => (Some(l.sender), l.receiver),
                 None => (None, None),
             };
-            mapper.new_session();
-            deadband.reset();
+            receiver = rx;
+            force.set_session(sender);
         }
         let mut newest = None;
         let mut skipped = 0u64;
-        if let (Some(rx), Some(tx)) = (&mut receiver, &sender) {
+        if let (Some(rx), Some(tx)) = (&mut receiver, &force.sender) {
             // Wait on the socket; the timeout only bounds how late a new session or a stop is
             // seen. Then take what else is queued, keeping the newest.
             let mut wait = Duration::from_millis(5);
@@ -466,60 +548,15 @@ pub fn run(mut mapper: ForceMapper, mut ports: ForcePorts, shared: Arc<Shared>) 
             skipped += u64::from(newest.is_some());
             newest = Some(c);
         }
-        if skipped > 0 {
-            shared
-                .net
-                .cursors_skipped
-                .fetch_add(skipped, Ordering::Relaxed);
-        }
-        let Some(msg) = newest.filter(|m| {
-            let current = mapper.admit(&m.cursor);
-            if !current {
-                shared.net.cursors_late.fetch_add(1, Ordering::Relaxed);
-            }
-            current
-        }) else {
-            if receiver.is_none() {
+        match newest {
+            Some(msg) => force.step(msg, skipped, &shared),
+            None if receiver.is_none() => {
                 // Unparked by the cursors' producer on every push; the timeout only bounds
                 // stop latency.
                 std::thread::park_timeout(Duration::from_millis(5));
             }
-            continue;
-        };
-        let start = Instant::now();
-        let field = shared.field.load();
-        let samples = shared.samples.load();
-        let tool = shared.tool.load();
-        let (out, event) = mapper.tick(&msg.cursor, field.as_deref(), samples.as_deref(), &tool);
-        drop((field, samples, tool));
-
-        let cmd = out.to_command(msg.packet_sequence, msg.server_timestamp_ns);
-        let now_ns = start.duration_since(epoch).as_nanos() as u64;
-        let k = shared.net.force_deadband.get();
-        if sender.is_some() && !deadband_gate(&mut deadband, k, now_ns, &cmd) {
-            shared.net.forces_held.fetch_add(1, Ordering::Relaxed);
-        } else if let Some(s) = &mut sender {
-            match s.send_force(&cmd) {
-                Ok(()) => {
-                    shared.net.forces_sent.fetch_add(1, Ordering::Relaxed);
-                    if let Some((sequence, _)) = s.last_sent() {
-                        shared.net.applied.sent(sequence, msg.cursor.servo_tick);
-                    }
-                }
-                Err(ClientError::Closed) => sender = None,
-                Err(e) => tracing::debug!("force command not sent: {e}"),
-            }
+            None => {}
         }
-        shared.haptic.record(&event);
-        if ports.events.push(event).is_err() {
-            shared.events_dropped.fetch_add(1, Ordering::Relaxed);
-        }
-        let end = Instant::now();
-        shared.net.turnaround_ns.store(
-            end.duration_since(msg.received).as_nanos() as u64,
-            Ordering::Relaxed,
-        );
-        clock.tick(start, end, &shared.force_loop);
     }
 }
 

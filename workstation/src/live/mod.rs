@@ -134,45 +134,62 @@ impl Workstation {
                 Box::new(move || sim::run(core, event_rx, cmd_rx, rep_tx, s)),
             )?,
         ));
+        let force = force::ForceLoop::new(mapper, event_tx);
         let s = Arc::clone(&shared);
-        let ports = force::ForcePorts {
-            cursors: cursor_rx,
-            senders: sender_rx,
-            events: event_tx,
-        };
-        let force = spawn(
-            "force-mapping",
-            Box::new(move || force::run(mapper, ports, s)),
-        )?;
-        let force_thread = force.thread().clone();
-        threads.push(("force-mapping", force));
-        let s = Arc::clone(&shared);
+        let quic = matches!(&source, CursorSource::Server(cfg) if cfg.transport == haptics_client::TransportKind::Quic);
         match source {
-            CursorSource::Server(cfg) => {
+            // QUIC: the network thread maps forces itself (`net::Answer::Inline`).
+            CursorSource::Server(cfg) if quic => {
                 let ports = net::NetPorts {
-                    cursors: cursor_tx,
-                    senders: sender_tx,
-                    force_thread,
+                    answer: net::Answer::Inline(Box::new(force)),
                 };
                 threads.push((
                     "network",
                     spawn("network", Box::new(move || net::run(cfg, ports, s)))?,
                 ));
             }
-            CursorSource::Mouse(hand) => {
-                drop(sender_tx); // no session, no sender: forces are shown, not sent
-                let ports = mouse::MousePorts {
-                    cursors: cursor_tx,
-                    force_thread,
+            source => {
+                let ports = force::ForcePorts {
+                    cursors: cursor_rx,
+                    senders: sender_rx,
                 };
-                let sampler = mouse::MouseSampler::new(scene.device.transform());
-                threads.push((
-                    "mouse",
-                    spawn(
-                        "mouse",
-                        Box::new(move || mouse::run(hand, sampler, ports, s)),
-                    )?,
-                ));
+                let f = spawn(
+                    "force-mapping",
+                    Box::new(move || force::run(force, ports, s)),
+                )?;
+                let force_thread = f.thread().clone();
+                threads.push(("force-mapping", f));
+                let s = Arc::clone(&shared);
+                match source {
+                    CursorSource::Server(cfg) => {
+                        let ports = net::NetPorts {
+                            answer: net::Answer::Thread {
+                                cursors: cursor_tx,
+                                senders: sender_tx,
+                                force_thread,
+                            },
+                        };
+                        threads.push((
+                            "network",
+                            spawn("network", Box::new(move || net::run(cfg, ports, s)))?,
+                        ));
+                    }
+                    CursorSource::Mouse(hand) => {
+                        drop(sender_tx); // no session, no sender: forces are shown, not sent
+                        let ports = mouse::MousePorts {
+                            cursors: cursor_tx,
+                            force_thread,
+                        };
+                        let sampler = mouse::MouseSampler::new(scene.device.transform());
+                        threads.push((
+                            "mouse",
+                            spawn(
+                                "mouse",
+                                Box::new(move || mouse::run(hand, sampler, ports, s)),
+                            )?,
+                        ));
+                    }
+                }
             }
         }
         let count = Arc::new(FrameCount::default());

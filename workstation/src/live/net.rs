@@ -6,9 +6,9 @@
 //! the first cursor (the UDP opener is re-sent until it arrives), split the hot path and hand
 //! it to the force thread ([`HotLink`]): on UDP the sender and the socket itself, which the
 //! force thread waits on (one wake-up from a cursor's arrival to its answer; this task no longer
-//! sees cursors and watches their silence through `NetStats::last_cursor_ns`); on QUIC the
-//! sender, while every cursor quinn delivers here goes into the force thread's ring (which it
-//! unparks). Then, concurrently: a `ClockPing` every 100 ms feeds
+//! sees cursors and watches their silence through `NetStats::last_cursor_ns`); on QUIC this
+//! thread answers every cursor quinn delivers itself ([`Answer::Inline`]: quinn's drivers run
+//! on its runtime, so the cursor's arrival and the command's departure wake this thread alone). Then, concurrently: a `ClockPing` every 100 ms feeds
 //! a [`ClockEstimator`] (offset and its bound in [`NetStats`](super::shared::NetStats)); the
 //! server's periodic `Stats` give the cursor → force round trip it measured. When the session
 //! ends (server gone or restarted, connection lost, no cursor for [`CURSOR_SILENCE`]) the force
@@ -28,7 +28,7 @@ use protocol::control::{ClockPing, ErrorCode, Stats};
 use protocol::{ClockEstimator, ClockSample, Control};
 use rustls::pki_types::CertificateDer;
 
-use super::force::HotLink;
+use super::force::{ForceLoop, HotLink};
 use super::shared::{CursorMsg, NetStats, PercentilesUs, Shared};
 
 /// A session whose cursor stream stops this long is over (the server streams at 1 kHz; UDP
@@ -237,16 +237,48 @@ pub fn client_identity(
 /// The ends of the network side's hand-offs.
 #[derive(Debug)]
 pub struct NetPorts {
-    /// Cursors to the force thread.
-    pub cursors: rtrb::Producer<CursorMsg>,
-    /// A hot path per session to the force thread, `None` when the session ended.
-    pub senders: rtrb::Producer<Option<HotLink>>,
-    /// The force thread, unparked on every cursor.
-    pub force_thread: Thread,
+    /// Who answers the cursors.
+    pub answer: Answer,
+}
+
+/// Who answers the session's cursors.
+#[derive(Debug)]
+pub enum Answer {
+    /// The force-mapping thread: on UDP it waits on the session's socket itself (handed over in
+    /// a [`HotLink`]); cursors this thread receives (the first one) go through its ring.
+    Thread {
+        /// Cursors to the force thread.
+        cursors: rtrb::Producer<CursorMsg>,
+        /// A hot path per session to the force thread, `None` when the session ended.
+        senders: rtrb::Producer<Option<HotLink>>,
+        /// The force thread, unparked on every cursor.
+        force_thread: Thread,
+    },
+    /// This thread (QUIC): quinn's drivers run on this thread's runtime, so a cursor is
+    /// answered where it arrives, one thread woken per direction on the workstation (through a
+    /// force thread it was three: this runtime, the force thread, this runtime again to send).
+    /// The thread then runs at the force thread's priority.
+    Inline(Box<ForceLoop>),
+}
+
+impl Answer {
+    /// The session ended: nothing more goes to it.
+    fn end_session(&mut self) {
+        match self {
+            Answer::Thread { senders, .. } => {
+                let _ = senders.push(None);
+            }
+            Answer::Inline(force) => force.set_session(None),
+        }
+    }
 }
 
 /// The thread body.
 pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
+    if matches!(ports.answer, Answer::Inline(_)) {
+        let priority = super::force::raise_priority();
+        tracing::info!(priority, "network thread maps forces itself (QUIC)");
+    }
     let rt = match tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -279,8 +311,8 @@ pub fn run(cfg: NetConfig, mut ports: NetPorts, shared: Arc<Shared>) {
                     );
                     let result = session(client, &mut ports, &shared).await;
                     shared.net.connected.store(false, Ordering::Release);
-                    // The force thread drops its sender: nothing more goes to a dead session.
-                    let _ = ports.senders.push(None);
+                    // The force loop drops its sender: nothing more goes to a dead session.
+                    ports.answer.end_session();
                     match result {
                         Ok(()) => tracing::info!("session closed"),
                         Err(e) => {
@@ -371,7 +403,8 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
         .await
         .map_err(|_| ClientError::Timeout("the first cursor sample"))??;
     let (rx, sender) = hot.split();
-    // UDP: the force thread waits on the socket; QUIC: cursors come through this task.
+    // UDP: the force thread waits on the socket; QUIC: cursors come through this task, and
+    // are answered here (`Answer::Inline`) or by the force thread.
     let (mut rx, receiver) = if rx.is_udp() {
         (None, Some(rx.into_blocking()?))
     } else {
@@ -381,20 +414,22 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
         .net
         .last_cursor_ns
         .store(clock.now_ns(), Ordering::Relaxed);
-    // One link per session; the ring has room for a few (the force thread takes them at once).
-    if ports
-        .senders
-        .push(Some(HotLink { sender, receiver }))
-        .is_err()
-    {
-        return Err(ClientError::Protocol(
-            "force thread not taking senders".into(),
-        ));
+    match &mut ports.answer {
+        Answer::Thread { senders, .. } => {
+            // One link per session; the ring has room for a few (the force thread takes them
+            // at once).
+            if senders.push(Some(HotLink { sender, receiver })).is_err() {
+                return Err(ClientError::Protocol(
+                    "force thread not taking senders".into(),
+                ));
+            }
+        }
+        Answer::Inline(force) => force.set_session(Some(sender)),
     }
     shared.net.connected.store(true, Ordering::Release);
-    push_cursor(
+    answer(
         ports,
-        &shared.net,
+        shared,
         CursorMsg::new(&first.0, first.1, Instant::now()),
     );
     let mut estimator = ClockEstimator::new(200.0);
@@ -416,7 +451,7 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
                 let (packet, cursor) = r.expect("pending without a receiver").map_err(|_| silent())??;
                 shared.net.last_cursor_ns.store(clock.now_ns(), Ordering::Relaxed);
                 shared.net.applied.on_cursor(&cursor);
-                push_cursor(ports, &shared.net, CursorMsg::new(&packet, cursor, Instant::now()));
+                answer(ports, shared, CursorMsg::new(&packet, cursor, Instant::now()));
             }
             msg = control.recv() => match msg? {
                 Control::ClockPong(p) => {
@@ -449,12 +484,22 @@ async fn session(client: Client, ports: &mut NetPorts, shared: &Shared) -> Resul
     }
 }
 
-fn push_cursor(ports: &mut NetPorts, net: &NetStats, msg: CursorMsg) {
-    net.cursors.fetch_add(1, Ordering::Relaxed);
-    if ports.cursors.push(msg).is_err() {
-        net.cursors_dropped.fetch_add(1, Ordering::Relaxed);
+/// A cursor this thread received: mapped here, or handed to the force thread.
+fn answer(ports: &mut NetPorts, shared: &Shared, msg: CursorMsg) {
+    shared.net.cursors.fetch_add(1, Ordering::Relaxed);
+    match &mut ports.answer {
+        Answer::Thread {
+            cursors,
+            force_thread,
+            ..
+        } => {
+            if cursors.push(msg).is_err() {
+                shared.net.cursors_dropped.fetch_add(1, Ordering::Relaxed);
+            }
+            force_thread.unpark();
+        }
+        Answer::Inline(force) => force.step(msg, 0, shared),
     }
-    ports.force_thread.unpark();
 }
 
 fn record_stats(net: &NetStats, s: &Stats) {
