@@ -184,9 +184,21 @@ pub fn run(args: &LatencyArgs) -> anyhow::Result<Report> {
         s.mark_telemetry();
     }
     bar.set_message(format!("session over {:?}", cfg.transport));
-    let main = runtime.block_on(measure(&cfg, args, None, |f| {
-        bar.set_position(done_before + (f * args.duration * 10.0) as u64);
-    }))?;
+    // The session is answered as the workstation answers it: on a thread at the force
+    // thread's priority (SCHED_FIFO where allowed; the live workstation's force thread, or its
+    // network thread on QUIC, runs so).
+    let main = std::thread::scope(|scope| {
+        scope
+            .spawn(|| {
+                let priority = crate::live::force::raise_priority();
+                tracing::debug!(priority, "latency session thread");
+                runtime.block_on(measure(&cfg, args, None, |f| {
+                    bar.set_position(done_before + (f * args.duration * 10.0) as u64);
+                }))
+            })
+            .join()
+            .unwrap_or_else(|_| Err(anyhow::anyhow!("the session thread panicked")))
+    })?;
     let lateness_clean = server
         .as_ref()
         .map(|s| s.servo_stats().lateness_since_mark_ns);
