@@ -6,7 +6,8 @@
 //! between), on QUIC from the ring its receiver fills (wait-free `rtrb` pops); read the device,
 //! [`ServoCore::tick`], publish the cursor unless the perceptual deadband holds it back
 //! ([`CursorDeadband`], off by default; then one non-blocking `send_to` for UDP, or a ring push
-//! plus an `unpark` of the QUIC sender thread), write the force, push a [`TickRecord`] to the
+//! plus the one-byte send that wakes the QUIC sender task, [`RingWaker`]), write the force,
+//! push a [`TickRecord`] to the
 //! telemetry ring. No allocation, no lock, no blocking call inside the tick; full rings drop
 //! (telemetry) or keep the newest (commands are drained every tick, so they never fill).
 //! A tick that starts more than one period late is an overrun; missed deadlines are skipped,
