@@ -2,6 +2,7 @@
 //! against in-process servers with the fake device; and `deploy/` (configs, units, udev rules,
 //! the netem script). One test binary.
 
+mod applied_age;
 mod deploy;
 mod latency;
 mod live;
