@@ -6,20 +6,14 @@ use criterion::{Criterion, black_box, criterion_group, criterion_main};
 use glam::Vec3;
 use haptics_server::device::Device;
 use haptics_server::device::fake::{FakeDevice, FakeParams, HandPath};
-use haptics_server::servo::{SafetyParams, ServoCore, ServoParams, SessionEvent};
+use haptics_server::servo::{ServoCore, ServoParams, SessionEvent};
 use protocol::packet::MAX_PACKET_BYTES;
 use protocol::{Body, ForceCommand, LocalModel, ModelKind, Outbound, SessionKey};
 
 fn params() -> ServoParams {
     ServoParams {
-        rate_hz: 1000,
-        safety: SafetyParams::default(),
         smoothing_alpha: 0.5,
-        device_max_force_n: 3.3,
-        max_stiffness_n_per_m: 700.0,
-        max_damping_n_s_per_m: 5.0,
-        estop_button_mask: 0,
-        passivity: false,
+        ..ServoParams::omni_at_1khz()
     }
 }
 

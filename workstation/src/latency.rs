@@ -270,12 +270,7 @@ fn in_process_server(
     // A latency run pauses between phases: keep the session through them.
     opts.net.idle_timeout = Duration::from_secs(5);
     let server = Server::start(device, opts)?;
-    let cfg = NetConfig {
-        server: server.local_addr(),
-        transport,
-        cert: server.certificate(),
-        identity: server.local_client(),
-    };
+    let cfg = NetConfig::to_in_process(&server, transport);
     Ok((server, cfg))
 }
 

@@ -631,19 +631,9 @@ mod tests {
     use crate::check::run::run_virtual;
     use crate::device::Device;
     use crate::device::fake::{FakeDevice, FakeParams, HandPath};
-    use crate::servo::SafetyParams;
 
     fn params() -> ServoParams {
-        ServoParams {
-            rate_hz: 1000,
-            safety: SafetyParams::default(),
-            smoothing_alpha: 0.0,
-            device_max_force_n: 3.3,
-            max_stiffness_n_per_m: 700.0,
-            max_damping_n_s_per_m: 5.0,
-            estop_button_mask: 0,
-            passivity: false,
-        }
+        ServoParams::omni_at_1khz()
     }
 
     fn test(axes: &str) -> ForceSummary {

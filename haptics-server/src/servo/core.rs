@@ -46,6 +46,23 @@ pub struct ServoParams {
 }
 
 impl ServoParams {
+    /// A Phantom Omni-class device at 1 kHz (CHAI3D's table: 3.3 N peak, ~700 N/m usable
+    /// stiffness; 5 N·s/m damping) with the default safety stages, no smoothing, no
+    /// emergency-stop button and no passivity controller: what tests, benches and virtual
+    /// runs start from.
+    pub fn omni_at_1khz() -> Self {
+        Self {
+            rate_hz: 1000,
+            safety: SafetyParams::default(),
+            smoothing_alpha: 0.0,
+            device_max_force_n: 3.3,
+            max_stiffness_n_per_m: 700.0,
+            max_damping_n_s_per_m: 5.0,
+            estop_button_mask: 0,
+            passivity: false,
+        }
+    }
+
     /// Nominal period, ns.
     pub fn period_ns(&self) -> u64 {
         1_000_000_000 / u64::from(self.rate_hz.max(1))

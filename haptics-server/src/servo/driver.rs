@@ -420,7 +420,6 @@ impl Loop {
 mod tests {
     use super::*;
     use crate::device::fake::{FakeDevice, FakeParams, HandPath};
-    use crate::servo::SafetyParams;
 
     /// Drive the loop's own tick on a virtual clock (1 kHz, `ms` ticks) with the hand
     /// sliding 15 mm/s and pressing the button from 400 to 600 ms; the published cursors.
@@ -429,16 +428,7 @@ mod tests {
         let (mut events, event_rx) = rtrb::RingBuffer::new(8);
         let (_commands, command_rx) = rtrb::RingBuffer::new(8);
         let (record_tx, _records) = rtrb::RingBuffer::new(4096);
-        let params = ServoParams {
-            rate_hz: 1000,
-            safety: SafetyParams::default(),
-            smoothing_alpha: 0.0,
-            device_max_force_n: 3.3,
-            max_stiffness_n_per_m: 700.0,
-            max_damping_n_s_per_m: 5.0,
-            estop_button_mask: 0,
-            passivity: false,
-        };
+        let params = ServoParams::omni_at_1khz();
         let (waker, _wake) = RingWaker::pair().unwrap();
         let mut lp = Loop {
             core: ServoCore::new(params),

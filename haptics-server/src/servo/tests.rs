@@ -5,21 +5,15 @@ use protocol::control::Config;
 use protocol::{ForceCommand, LocalModel, ModelKind};
 
 use super::core::{ServoCore, ServoParams, SessionEvent};
-use super::safety::{SafetyParams, Stage};
+use super::safety::Stage;
 use crate::device::DeviceSample;
 
 const MS: u64 = 1_000_000;
 
 fn params() -> ServoParams {
     ServoParams {
-        rate_hz: 1000,
-        safety: SafetyParams::default(),
-        smoothing_alpha: 0.0,
-        device_max_force_n: 3.3,
-        max_stiffness_n_per_m: 700.0,
-        max_damping_n_s_per_m: 5.0,
         estop_button_mask: 0b10,
-        passivity: false,
+        ..ServoParams::omni_at_1khz()
     }
 }
 

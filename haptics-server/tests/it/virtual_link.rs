@@ -6,7 +6,7 @@
 use glam::Vec3;
 use haptics_server::device::Device;
 use haptics_server::device::fake::{FakeDevice, FakeParams, HandPath};
-use haptics_server::servo::{SafetyParams, ServoCore, ServoParams, SessionEvent};
+use haptics_server::servo::{ServoCore, ServoParams, SessionEvent};
 use protocol::{CursorSample, ForceCommand, LinkParams, LocalModel, ModelKind, SimLink};
 
 const MS: u64 = 1_000_000;
@@ -31,16 +31,7 @@ fn run(latency_ms: u64, loss: f64, outage: std::ops::Range<u64>, ticks: u64) -> 
         tremor_m: 0.0,
         ..FakeParams::default()
     });
-    let mut core = ServoCore::new(ServoParams {
-        rate_hz: 1000,
-        safety: SafetyParams::default(),
-        smoothing_alpha: 0.0,
-        device_max_force_n: 3.3,
-        max_stiffness_n_per_m: 700.0,
-        max_damping_n_s_per_m: 5.0,
-        estop_button_mask: 0,
-        passivity: false,
-    });
+    let mut core = ServoCore::new(ServoParams::omni_at_1khz());
     core.on_event(0, SessionEvent::Start);
     let wall = |c: &CursorSample| ForceCommand {
         force: Vec3::Y * (K_WALL * -c.position.y).max(0.0),

@@ -7,7 +7,7 @@
 //! splits between the two bins its round trips span, in the share the jitter predicts.
 
 use haptics_server::device::DeviceSample;
-use haptics_server::servo::{SafetyParams, ServoCore, ServoParams, SessionEvent};
+use haptics_server::servo::{ServoCore, ServoParams, SessionEvent};
 use protocol::{ForceCommand, LinkParams, LocalModel, SimLink};
 use workstation::live::shared::AppliedAgeTracker;
 
@@ -16,16 +16,7 @@ const STEP_NS: u64 = 10_000;
 
 /// Run `ticks` servo ticks through a link of `link` each way; the tracker's counts.
 fn run(link: LinkParams, ticks: u64) -> protocol::AppliedAge {
-    let mut core = ServoCore::new(ServoParams {
-        rate_hz: 1000,
-        safety: SafetyParams::default(),
-        smoothing_alpha: 0.0,
-        device_max_force_n: 3.3,
-        max_stiffness_n_per_m: 700.0,
-        max_damping_n_s_per_m: 5.0,
-        estop_button_mask: 0,
-        passivity: false,
-    });
+    let mut core = ServoCore::new(ServoParams::omni_at_1khz());
     core.on_event(0, SessionEvent::Start);
     let mut up = SimLink::new(LinkParams { seed: 1, ..link });
     let mut down: SimLink<(u32, ForceCommand)> = SimLink::new(LinkParams { seed: 2, ..link });

@@ -70,6 +70,23 @@ impl NetConfig {
     }
 }
 
+#[cfg(feature = "demo-server")]
+impl NetConfig {
+    /// The connection to a server started in this process (`demo`, `latency`): its address,
+    /// certificate and the client identity it created for this machine.
+    pub fn to_in_process(
+        server: &haptics_server::server::Server,
+        transport: TransportKind,
+    ) -> Self {
+        Self {
+            server: server.local_addr(),
+            transport,
+            cert: server.certificate(),
+            identity: server.local_client(),
+        }
+    }
+}
+
 /// The workstation's side of the connection as a file (`workstation run --config FILE`,
 /// `workstation latency --config FILE`); flags given on the command line override it.
 ///

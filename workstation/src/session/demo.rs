@@ -350,12 +350,7 @@ pub fn embedded_server(
     // Real-time servo when the OS allows it (else it warns and runs SCHED_OTHER).
     opts.driver.rt.fifo_priority = Some(crate::live::force::SERVO_FIFO_PRIORITY);
     let server = Server::start(device, opts)?;
-    let cfg = NetConfig {
-        server: server.local_addr(),
-        transport,
-        cert: server.certificate(),
-        identity: server.local_client(),
-    };
+    let cfg = NetConfig::to_in_process(&server, transport);
     Ok((Some(server), cfg))
 }
 
