@@ -15,6 +15,7 @@
 //! - `edit`: operations between strokes (CSG, emboss, a primitive at the cursor, save scene);
 //! - `settings`: [`Settings`] changed at run time;
 //! - `save`: [`save`] the model's points and meshed zero set;
+//! - `share`: what a shared scene takes from the simulation and gives it ([`SharedPoints`]);
 //! - `driver`: the thread ([`run`]) and its messages ([`SimCommand`], [`SimReport`]);
 //! - `tests`.
 
@@ -22,6 +23,7 @@ mod driver;
 mod edit;
 mod save;
 mod settings;
+mod share;
 mod stroke;
 #[cfg(test)]
 mod tests;
@@ -40,6 +42,7 @@ pub use driver::{Reply, SimCommand, SimReport, run};
 pub use edit::MAX_PRIMITIVE_POINTS;
 pub use save::{Saved, save};
 pub use settings::Settings;
+pub use share::SharedPoints;
 pub use stroke::{MAX_CURVE_POINTS, StrokeReport};
 
 use super::points::{ObjectPoints, PointPublisher};

@@ -14,7 +14,7 @@ use sim_core::csg::CsgOp;
 use sim_core::grid::ScalarGrid;
 use sim_core::probe::SampleGrid;
 
-use super::{FOLLOW_EVERY, Saved, Settings, SimCore, StrokeReport, save};
+use super::{FOLLOW_EVERY, Saved, Settings, SharedPoints, SimCore, StrokeReport, save};
 use crate::live::force::LoopTimer;
 use crate::live::scene_file::{ContactSpec, ToolKind};
 use crate::live::shared::{ForceTool, InputEvent, Shared};
@@ -51,6 +51,16 @@ pub enum SimCommand {
     Op(Box<Op>, Reply<(&'static str, String)>),
     /// Hand the core over (at the end of a session, for saving).
     Finish(mpsc::Sender<SimCore>),
+    /// Join a shared scene (`crate::share`): the sculpted object's points after every local
+    /// commit (a stroke that shaped or painted, an operation) go to `outbox`; the answer is the
+    /// points now.
+    Share(
+        tokio::sync::mpsc::UnboundedSender<SharedPoints>,
+        Reply<SharedPoints>,
+    ),
+    /// Adopt another station's state ([`SimCore::adopt`]), after the stroke in progress if one
+    /// is (the newest waiting state wins); the answer comes when it is taken.
+    Adopt(Box<SharedPoints>, Reply<()>),
 }
 
 /// Messages from the simulation thread.
@@ -92,6 +102,16 @@ pub fn run(
         samples: shared.samples.swap(core.samples().map(Arc::new)),
         ..Retired::default()
     };
+    // A shared scene's outbox, and a state waiting for the stroke in progress to end.
+    let mut outbox: Option<tokio::sync::mpsc::UnboundedSender<SharedPoints>> = None;
+    let mut adopt: Option<(Box<SharedPoints>, Reply<()>)> = None;
+    // The shared version the points were made from: commits name it, so a stroke made before
+    // a newer state was taken is known for one made from an older state.
+    let mut base = 0;
+    let shared_points = |core: &SimCore, base| SharedPoints {
+        version: base,
+        ..core.shared_points()
+    };
     let fail = |e: anyhow::Error, reports: &mpsc::Sender<SimReport>| {
         tracing::error!("simulation stopped: {e:#}");
         // Nothing to feel from a dead simulation: no field, no tool spring.
@@ -122,6 +142,11 @@ pub fn run(
                     let r = core.run_op(&op);
                     retired.samples = shared.samples.swap(core.samples().map(Arc::new));
                     shared.render.store(Some(Arc::new(core.render_snapshot())));
+                    if r.is_ok()
+                        && let Some(o) = &outbox
+                    {
+                        let _ = o.send(shared_points(&core, base));
+                    }
                     let _ = reply.send(r);
                 }
                 SimCommand::CsgPrimitive {
@@ -134,6 +159,11 @@ pub fn run(
                     let r = core.csg_primitive(op, &shape, size, at);
                     retired.samples = shared.samples.swap(core.samples().map(Arc::new));
                     shared.render.store(Some(Arc::new(core.render_snapshot())));
+                    if r.is_ok()
+                        && let Some(o) = &outbox
+                    {
+                        let _ = o.send(shared_points(&core, base));
+                    }
                     let _ = reply.send(r);
                 }
                 SimCommand::Save(dir, reply) => {
@@ -146,7 +176,25 @@ pub fn run(
                     let _ = reply.send(core);
                     return;
                 }
+                SimCommand::Share(tx, reply) => {
+                    let _ = reply.send(Ok(shared_points(&core, base)));
+                    outbox = Some(tx);
+                }
+                SimCommand::Adopt(s, reply) => adopt = Some((s, reply)),
             }
+        }
+        if !core.engaged()
+            && let Some((s, reply)) = adopt.take()
+        {
+            let r = core.adopt(&s);
+            match &r {
+                Ok(()) => base = s.version,
+                Err(e) => tracing::warn!("a shared state not taken: {e:#}"),
+            }
+            retired.samples = shared.samples.swap(core.samples().map(Arc::new));
+            retired.field = shared.field.swap(core.publish_field());
+            shared.render.store(Some(Arc::new(core.render_snapshot())));
+            let _ = reply.send(r);
         }
         let start = Instant::now();
         let strokes = core.strokes().len();
@@ -180,6 +228,14 @@ pub fn run(
         }
         for s in &core.strokes()[strokes..] {
             let _ = reports.send(SimReport::Stroke(s.clone()));
+        }
+        // A local commit that changed the shape or its colours goes to the shared scene.
+        if let Some(o) = &outbox
+            && core.strokes()[strokes..]
+                .iter()
+                .any(|s| s.tool != ToolKind::Touch)
+        {
+            let _ = o.send(shared_points(&core, base));
         }
         let now = Instant::now();
         if core.strokes().len() > strokes
