@@ -21,5 +21,6 @@ pub mod relay;
 pub mod scenes;
 pub mod sculpt;
 pub mod session;
+pub mod share;
 pub mod status;
 pub mod view;

@@ -32,6 +32,12 @@ enum Command {
     /// Run the workstation against a haptics server: network, force-mapping, simulation and
     /// rendering threads on a scene; saves the model on exit (Ctrl-C or --seconds).
     Run(workstation::session::run::RunArgs),
+    /// A shared scene's router for one site (an embedded Zenoh router holding each scene's
+    /// truth): stations join with `--share ENDPOINT` on demo, run and view; other sites' zenohd
+    /// routers link to it. See docs/SHARING.md.
+    ShareRouter(workstation::share::router::RouterArgs),
+    /// Make a station's (or the router's) certificate and key for a shared scene's mutual TLS.
+    ShareIdentity(workstation::share::identity::IdentityArgs),
     /// Write a scene's strokes as a fake-device path file for `haptics-server --fake-path file`.
     HandPath(workstation::session::run::HandPathArgs),
     /// Render a point or mesh file (PLY, OFF, OBJ, XYZ) headless to a PNG.
@@ -90,6 +96,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(args) => workstation::session::demo::command(&args),
         Command::View(args) => workstation::view::run(&args),
         Command::Run(args) => workstation::session::run::run(&args),
+        Command::ShareRouter(args) => workstation::share::router::share_router_command(&args),
+        Command::ShareIdentity(args) => workstation::share::identity::share_identity_command(&args),
         Command::HandPath(args) => workstation::session::run::hand_path_command(&args),
         Command::Render(args) => workstation::live::snapshot_png::run(&args),
         Command::MeshError(args) => {

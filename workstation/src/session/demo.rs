@@ -27,6 +27,7 @@ use crate::live::phases::{PhaseReport, drive_phases, hand_path, write_hand_path}
 use crate::live::scene_file::{DEMO_IMAGE, DEMO_SCENE, SceneFile};
 use crate::live::shared::PercentilesUs;
 use crate::live::{CursorSource, LiveStats, Workstation, save};
+use crate::share::station::Station;
 use crate::view::{self, Exit, Link};
 
 /// Seconds the hand rests before the first stroke (the session comes up meanwhile).
@@ -58,6 +59,9 @@ pub struct DemoArgs {
     /// Stay headless even when a display is present (the window opens by default then).
     #[arg(long)]
     pub no_window: bool,
+    /// Joining a shared scene (the built-in scene's name is `demo`).
+    #[command(flatten)]
+    pub share: crate::share::station::ShareArgs,
 }
 
 /// What a caller that shows the demo (the window) hooks into [`run_with`].
@@ -104,6 +108,9 @@ pub struct Summary {
     pub seconds: f64,
     /// Everything else measured.
     pub stats: LiveStats,
+    /// The shared scene, with `--share`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub share: Option<crate::share::station::ShareSummary>,
 }
 
 /// `workstation demo`: with the window when a display is present (and not `--no-window`): the
@@ -218,13 +225,40 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
         let addr = cfg.server;
         let source = CursorSource::Server(cfg);
         let ws = Workstation::start(&core_scene, dir.clone(), source.clone(), Some(frames_dir))?;
+        let scene_path = args
+            .scene
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("demo.toml"));
+        let station = args
+            .share
+            .resolve(&scene_path, false)?
+            .map(|c| Station::start(c, ws.commander(), Arc::clone(&ws.shared)))
+            .transpose()?;
         if let Some(tx) = &hooks.started {
-            let _ = tx.send(Link::to(&ws, &core_scene, dir, &source));
+            let mut link = Link::to(&ws, &core_scene, dir, &source);
+            link.remote = station.as_ref().map(|s| Arc::clone(&s.stats));
+            let _ = tx.send(link);
         }
-        (ws, server, addr)
+        (ws, server, addr, station)
     };
-    let (ws, server, addr) = ws_and_server;
+    let (ws, server, addr, station) = ws_and_server;
     ws.wait_connected(Duration::from_secs(10))?;
+    if let Some(st) = &station {
+        let t0 = Instant::now();
+        while !st.joined() {
+            anyhow::ensure!(
+                t0.elapsed() < Duration::from_secs(20),
+                "the shared scene was not joined within 20 s (is `workstation share-router` running at {}?)",
+                args.share.share.as_deref().unwrap_or_default()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        say(format!(
+            "demo: joined the shared scene `{}` (version {})",
+            st.summary().scene,
+            st.summary().version
+        ));
+    }
     say(format!(
         "demo: connected to {addr} over {:?}{}",
         args.transport,
@@ -257,6 +291,10 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
     // One last frame of the result.
     std::thread::sleep(Duration::from_secs_f64(scene.render.interval_s * 1.5));
     let stats = ws.stats();
+    let share = station.map(|st| {
+        st.settle(Duration::from_secs(10));
+        st.stop()
+    });
     let core = ws.finish()?;
     drop(server);
     let baseline_udp_rtt_us = udp_baseline(2000)?;
@@ -276,6 +314,7 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
         server: addr,
         seconds: started.elapsed().as_secs_f64(),
         stats,
+        share,
     };
     std::fs::write(
         args.out.join("summary.json"),

@@ -4,7 +4,8 @@
 //! `run` loads the scene, connects (reconnecting whenever the session drops), and runs until
 //! Ctrl-C or `--seconds`, printing one status line a second. If the scene has phases, they are
 //! driven as in the demo (strokes end at the button's release). On exit it saves the model to
-//! `--out`.
+//! `--out`. With `--share` it joins a shared scene (`crate::share`); without `--server` it is
+//! then a station without a device: it follows the scene (and saves it) but has no hand.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -12,7 +13,8 @@ use std::time::{Duration, Instant};
 
 use crate::live::phases::{drive_phases, hand_path, write_hand_path};
 use crate::live::scene_file::load_scene;
-use crate::live::{Workstation, save};
+use crate::live::{CursorSource, Workstation, save};
+use crate::share::station::{ShareArgs, Station};
 
 /// Arguments of `workstation run`.
 #[derive(Debug, Clone, clap::Args)]
@@ -38,6 +40,9 @@ pub struct RunArgs {
     /// commands by ~90 % (see docs/BENCHMARKS.md, "What delay does to touch").
     #[arg(long, value_name = "K", default_value_t = 0.0)]
     pub force_deadband: f64,
+    /// Joining a shared scene.
+    #[command(flatten)]
+    pub share: ShareArgs,
 }
 
 /// Arguments of `workstation hand-path`.
@@ -82,6 +87,19 @@ extern "C" fn on_sigint(_: libc::c_int) {
     INTERRUPTED.store(true, Ordering::Relaxed);
 }
 
+/// Let Ctrl-C (SIGINT) end the process's work gracefully: [`interrupted`] turns true.
+pub fn catch_interrupt() {
+    // SAFETY: installs an async-signal-safe handler that only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGINT, on_sigint as *const () as libc::sighandler_t);
+    }
+}
+
+/// Whether Ctrl-C was pressed since [`catch_interrupt`].
+pub fn interrupted() -> bool {
+    INTERRUPTED.load(Ordering::Relaxed)
+}
+
 /// `workstation run`.
 pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let scene = load_scene(&args.scene)?;
@@ -100,19 +118,31 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         .scene
         .parent()
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
-    let cfg = args
-        .connect
-        .resolve()?
-        .ok_or_else(|| anyhow::anyhow!("give --server and --cert, or --config FILE"))?;
-    let (server, transport) = (cfg.server, cfg.transport);
-    // SAFETY: installs an async-signal-safe handler that only stores to an atomic.
-    unsafe {
-        libc::signal(libc::SIGINT, on_sigint as *const () as libc::sighandler_t);
-    }
+    let cfg = args.connect.resolve()?;
+    let share = args.share.resolve(&args.scene, cfg.is_none())?;
+    anyhow::ensure!(
+        cfg.is_some() || share.is_some(),
+        "give --server and --cert, or --config FILE (or --share ENDPOINT to follow a shared scene without a device)"
+    );
+    let server = cfg.as_ref().map(|c| (c.server, c.transport));
+    catch_interrupt();
     let frames = args.frames.then(|| args.out.join("frames"));
-    let ws = Workstation::start(&scene, dir, cfg, frames)?;
+    let source = match cfg {
+        Some(cfg) => CursorSource::Server(cfg),
+        // A station without a device: a hand that never moves.
+        None => CursorSource::Mouse(Default::default()),
+    };
+    let ws = Workstation::start(&scene, dir, source, frames)?;
     ws.shared.net.force_deadband.set(args.force_deadband);
-    println!("workstation: connecting to {} over {:?}", server, transport);
+    let station = share
+        .map(|c| Station::start(c, ws.commander(), std::sync::Arc::clone(&ws.shared)))
+        .transpose()?;
+    match server {
+        Some((server, transport)) => {
+            println!("workstation: connecting to {server} over {transport:?}")
+        }
+        None => println!("workstation: no device, following the shared scene"),
+    }
     let started = Instant::now();
     let done = || {
         INTERRUPTED.load(Ordering::Relaxed)
@@ -123,9 +153,9 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     // Phases run once a session is up; Ctrl-C or --seconds end them (the model is saved
     // either way, and an error is reported after saving).
     let mut outcome = Ok(());
-    if !scene.phase.is_empty() {
+    if !scene.phase.is_empty() && server.is_some() {
         let deadline = started + Duration::from_secs_f64(args.seconds.unwrap_or(1e7));
-        while !ws.connected() && !done() {
+        while !(ws.connected() && station.as_ref().is_none_or(Station::joined)) && !done() {
             std::thread::sleep(Duration::from_millis(20));
         }
         if !done() {
@@ -147,9 +177,18 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         if last.elapsed() >= Duration::from_secs(1) {
             last = Instant::now();
             let s = ws.stats();
+            let shared = station.as_ref().map_or(String::new(), |st| {
+                let v = st.summary();
+                format!(
+                    " · shared `{}` v{} (took {}, proposed {}, refused {})",
+                    v.scene, v.version, v.adopted, v.proposed, v.refused
+                )
+            });
             println!(
                 "{} force {:.0} Hz (p99 {:.0} µs) · sim {:.0} Hz · rtt p50 {:.0} µs · clock offset {:.0} ± {:.0} µs · sessions {}",
-                if ws.connected() {
+                if server.is_none() {
+                    "no device:".to_owned()
+                } else if ws.connected() {
                     "connected".to_owned()
                 } else {
                     match ws.shared.net.connect_error.load_full() {
@@ -163,12 +202,32 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
                 s.rtt_us.p50,
                 s.clock_offset_us,
                 s.clock_uncertainty_us,
-                s.sessions
+                s.sessions,
             );
+            if !shared.is_empty() {
+                println!("  {}", shared.trim_start_matches(" · "));
+            }
         }
     }
-    let never_connected = ws.stats().sessions == 0;
+    let never_connected = server.is_some() && ws.stats().sessions == 0;
     let why = ws.shared.net.connect_error.load_full();
+    if let Some(st) = station {
+        // What was sculpted last is on the bus before the session ends.
+        st.settle(Duration::from_secs(10));
+        let summary = st.stop();
+        std::fs::create_dir_all(&args.out)?;
+        let path = args.out.join("share.json");
+        std::fs::write(&path, serde_json::to_string_pretty(&summary)?)?;
+        println!(
+            "shared scene `{}`: version {}, took {} states, proposed {} ({} refused); {}",
+            summary.scene,
+            summary.version,
+            summary.adopted,
+            summary.proposed,
+            summary.refused,
+            path.display()
+        );
+    }
     let core = ws.finish()?;
     let saved = save(&core, &args.out, scene.mesh_resolution)?;
     println!(
@@ -180,8 +239,13 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     if never_connected {
         anyhow::bail!(
             "never had a session: {}",
-            why.as_deref()
-                .map_or(format!("{server} did not answer"), |w| w.to_string())
+            why.as_deref().map_or_else(
+                || format!(
+                    "{} did not answer",
+                    server.map_or(String::new(), |s| s.0.to_string())
+                ),
+                |w| w.to_string()
+            )
         );
     }
     outcome

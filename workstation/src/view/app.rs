@@ -389,6 +389,32 @@ impl ViewApp {
                 );
             }
         }
+        // Other stations of a shared scene: their cursors, named.
+        if let Some(remote) = &self.link.remote {
+            for (name, at) in remote.other_cursors(std::time::Duration::from_secs(1)) {
+                let Some((x, y)) =
+                    orbit.project(DVec3::from(at), rect.width() as f64, rect.height() as f64)
+                else {
+                    continue;
+                };
+                let p = rect.min + egui::vec2(x as f32, y as f32);
+                if !rect.contains(p) {
+                    continue;
+                }
+                let colour = egui::Color32::from_rgb(255, 170, 40);
+                ui.painter()
+                    .circle_stroke(p, 7.0, egui::Stroke::new(2.0, colour));
+                ui.painter().text(
+                    p + egui::vec2(10.0, -10.0),
+                    egui::Align2::LEFT_BOTTOM,
+                    name,
+                    egui::FontId::proportional(14.0),
+                    colour,
+                );
+            }
+            ui.ctx()
+                .request_repaint_after(std::time::Duration::from_millis(30));
+        }
         let hint = if self.link.mouse.is_some() {
             let tool = snap.tool.unwrap_or(self.panel.tool);
             format!(

@@ -100,6 +100,9 @@ pub struct ViewArgs {
     /// Window size in logical pixels, WIDTHxHEIGHT.
     #[arg(long, default_value = "1280x800", value_parser = parse_size)]
     pub size: (u32, u32),
+    /// Joining a shared scene: mouse strokes are shared, other stations' cursors drawn.
+    #[command(flatten)]
+    pub share: crate::share::station::ShareArgs,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -152,6 +155,10 @@ pub struct Link {
     pub source: String,
     /// Lines from whoever drives the session (the demo's phases), shown in the panel.
     pub log: Arc<Mutex<Vec<String>>>,
+    /// The shared scene joined (`--share`): other stations' cursors are drawn from it.
+    pub remote: Option<Arc<crate::share::station::ShareStats>>,
+    /// The share thread, when the window's session owns it (stopped with the window).
+    pub station: Option<Arc<crate::share::station::Station>>,
 }
 
 impl Link {
@@ -172,6 +179,8 @@ impl Link {
             dir,
             source: label,
             log: Arc::default(),
+            remote: None,
+            station: None,
         }
     }
 }
@@ -183,6 +192,8 @@ pub struct Starter {
     pub server: Option<NetConfig>,
     /// The scene shown (`None`: the demo's).
     pub scene: Option<PathBuf>,
+    /// Joining a shared scene (`--share`).
+    pub share: crate::share::station::ShareArgs,
 }
 
 impl Starter {
@@ -198,7 +209,17 @@ impl Starter {
             None => CursorSource::Mouse(Arc::default()),
         };
         let ws = Workstation::start(&scene, dir.clone(), source.clone(), None)?;
-        let link = Link::to(&ws, &scene, dir, &source);
+        let mut link = Link::to(&ws, &scene, dir, &source);
+        let name = scene_path.map_or_else(|| PathBuf::from("demo.toml"), Path::to_path_buf);
+        if let Some(cfg) = self.share.resolve(&name, false)? {
+            let station = Arc::new(crate::share::station::Station::start(
+                cfg,
+                ws.commander(),
+                Arc::clone(&ws.shared),
+            )?);
+            link.remote = Some(Arc::clone(&station.stats));
+            link.station = Some(station);
+        }
         Ok((ws, link))
     }
 }
@@ -247,6 +268,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
     let starter = Starter {
         server,
         scene: args.scene.clone(),
+        share: args.share.clone(),
     };
     let (ws, link) = starter.start(args.scene.as_deref(), &args.out)?;
     let exit = Exit {
