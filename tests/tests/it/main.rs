@@ -7,5 +7,6 @@ mod deploy;
 mod latency;
 mod live;
 mod server_process;
+mod share;
 mod software;
 mod window;

@@ -100,6 +100,23 @@ impl Book {
         }
     }
 
+    /// The version the newest pending commit will have once ordered (or the version held): a
+    /// proposal names it, for a keeper that lost its state to re-seed the scene after it.
+    pub fn expected_version(&self) -> u64 {
+        self.version() + self.pending.len() as u64
+    }
+
+    /// The keeper's current state `id`, version `seq`, whatever the version held (the answer to
+    /// a catch-up after a refusal: a restarted keeper may have numbered the scene anew).
+    pub fn take_current(&mut self, id: &StateId, seq: u64) -> OnOrdered {
+        if self.held.as_ref().is_some_and(|h| h.0 == *id) {
+            self.held = Some((id.clone(), seq));
+            return OnOrdered::Ignore;
+        }
+        self.held = None;
+        self.on_ordered(id, seq)
+    }
+
     /// The keeper refused this station's commit `id`: it and every later pending one (made from
     /// it) are gone; the newer state that caused it comes (or came) as an ordered state.
     pub fn on_refused(&mut self, id: &StateId) {
@@ -155,6 +172,10 @@ mod tests {
         b.on_refused(&id("b", 2));
         assert_eq!(b.pending(), 1);
         assert_eq!(b.commit(1), Some((id("b", 4), Some(id("b", 1)))));
+        // A keeper that restarted empty numbered the scene anew: its state is taken anyway.
+        assert_eq!(b.take_current(&id("c", 1), 1), OnOrdered::Adopt);
+        assert_eq!(b.take_current(&id("c", 1), 1), OnOrdered::Ignore);
+        assert_eq!(b.version(), 1);
         // Counted from where a restarted station starts.
         assert_eq!(Book::new("b", 500).commit(0), Some((id("b", 500), None)));
     }

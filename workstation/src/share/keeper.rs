@@ -8,7 +8,10 @@
 //! it refuses any other, saying why. Every accepted state is made from the one before it, so
 //! the versions are one history and every station that applies them in order holds the same
 //! points. A station whose proposal was refused (another station's commit got in first) takes
-//! the newer state instead: its stroke is undone, nothing anyone committed is lost.
+//! the newer state instead: its stroke is undone, nothing anyone committed is lost. A proposal
+//! sent again (its answer was lost with a link) gets the same answer; a keeper with no state
+//! (a router restarted without `--store`) takes the first proposal it gets as the scene's
+//! state, numbered after the version it was made from, so the stations carry the scene over.
 
 use std::collections::BTreeMap;
 
@@ -149,11 +152,15 @@ impl Keeper {
             );
         }
         match (&self.current, &s.parent) {
+            // A proposal sent again (its answer was lost): the same answer.
+            (Some((cur, seq, _)), _) if *cur == s.id => Ok((s, *seq)),
             (None, None) => Ok((s, 1)),
-            (None, Some(p)) => refuse(
-                "stale",
-                format!("made from {p}, but the scene has no state yet"),
-            ),
+            // A router restarted without its store: the first station to propose after it
+            // re-seeds the scene, numbered after its parent's version (a proposal's `seq`).
+            (None, Some(_)) => {
+                let seq = s.seq.saturating_add(1);
+                Ok((s, seq))
+            }
             (Some((cur, _, _)), None) => refuse(
                 "stale",
                 format!("a first state, but the scene is at {cur} already"),
@@ -232,6 +239,11 @@ mod tests {
             reason(k.propose("a", &proposal("a", 3, Some(("a", 2)), 3.0))),
             "stale"
         );
+        // b's proposal again (its verdict was lost): the same answer, no new version.
+        assert_eq!(
+            seq(k.propose("b", &proposal("b", 2, Some(("a", 2)), 2.0))),
+            3
+        );
         // The snapshot is b's state, ordered as version 3.
         let s = wire::decode(k.snapshot().unwrap()).unwrap();
         assert_eq!((s.kind, s.seq, s.positions[0].x), (Kind::Ordered, 3, 2.0));
@@ -245,6 +257,11 @@ mod tests {
             4
         );
         assert!(Keeper::restore("other", k.snapshot().unwrap().to_vec()).is_err());
+        // Restarted without a store: a station re-seeds the scene after the version it holds.
+        let mut empty = Keeper::new("demo");
+        let mut reseed = proposal("a", 9, Some(("b", 2)), 5.0);
+        reseed[8..16].copy_from_slice(&3u64.to_le_bytes());
+        assert_eq!(seq(empty.propose("a", &reseed)), 4);
         assert!(Keeper::restore("demo", proposal("a", 1, None, 0.0)).is_err());
     }
 

@@ -190,6 +190,7 @@ impl Station {
             stop: Arc::clone(&stop),
             book: Book::new(&config.station, unix_ns() / 1_000),
             t0: Instant::now(),
+            unanswered: Vec::new(),
         };
         let thread = std::thread::Builder::new()
             .name("share".into())
@@ -273,6 +274,9 @@ impl Drop for Station {
     }
 }
 
+/// A proposal sent again when no answer came within this (its link dropped meanwhile).
+const RESEND_AFTER: Duration = Duration::from_secs(2);
+
 /// The share thread's state.
 struct Task {
     config: StationConfig,
@@ -282,35 +286,61 @@ struct Task {
     stop: Arc<AtomicBool>,
     book: Book,
     t0: Instant,
+    /// Proposals without an answer yet: their bytes and when they were last sent (`None`: not
+    /// to be sent again, made from a state another station's replaced).
+    unanswered: Vec<(StateId, Vec<u8>, Option<Instant>)>,
+}
+
+/// The station's handles on the bus.
+struct Bus {
+    keys: Keys,
+    proposals: zenoh::pubsub::Publisher<'static>,
+    state: zenoh::query::Querier<'static>,
+}
+
+fn zerr(e: zenoh::Error) -> anyhow::Error {
+    anyhow::anyhow!("{e}")
 }
 
 impl Task {
     async fn run(mut self, zenoh_config: zenoh::Config) -> anyhow::Result<()> {
         let keys = Keys::new(&self.config.scene);
         let session = bus::open(zenoh_config, "station").await?;
-        let err = |e: zenoh::Error| anyhow::anyhow!("{e}");
         let edits = session
             .declare_subscriber(keys.edits())
             .await
-            .map_err(err)?;
+            .map_err(zerr)?;
         let verdicts = session
             .declare_subscriber(keys.verdicts(&self.config.station))
             .await
-            .map_err(err)?;
+            .map_err(zerr)?;
         let status = session
             .declare_subscriber(keys.keeper())
             .await
-            .map_err(err)?;
+            .map_err(zerr)?;
         let others = session
             .declare_subscriber(keys.all_telemetry())
             .await
-            .map_err(err)?;
+            .map_err(zerr)?;
         let telemetry = session
             .declare_publisher(keys.telemetry(&self.config.station))
             .congestion_control(CongestionControl::Drop)
             .express(true)
             .await
-            .map_err(err)?;
+            .map_err(zerr)?;
+        let bus = Bus {
+            proposals: session
+                .declare_publisher(keys.propose(&self.config.station))
+                .congestion_control(CongestionControl::Block)
+                .await
+                .map_err(zerr)?,
+            state: session
+                .declare_querier(keys.state())
+                .timeout(Duration::from_secs(5))
+                .await
+                .map_err(zerr)?,
+            keys,
+        };
         let (outbox_tx, mut outbox) = tokio::sync::mpsc::unbounded_channel();
         let (tx, rx) = mpsc::channel();
         self.commands
@@ -320,9 +350,36 @@ impl Task {
         let now = tokio::task::spawn_blocking(move || rx.recv())
             .await?
             .context("the simulation thread has stopped")??;
+        // A put or a query before the router has told this session about the keeper would go
+        // nowhere: wait until both are matched.
+        let waiting = Instant::now();
+        let mut said = false;
+        loop {
+            let proposing = bus
+                .proposals
+                .matching_status()
+                .await
+                .map_err(zerr)?
+                .matching();
+            let asking = bus.state.matching_status().await.map_err(zerr)?.matching();
+            if proposing && asking {
+                break;
+            }
+            if self.stop.load(Ordering::Acquire) {
+                return Ok(());
+            }
+            if !said && waiting.elapsed() > Duration::from_secs(3) {
+                tracing::warn!(
+                    "waiting for the scene's keeper at {} (is `workstation share-router` running there?)",
+                    self.config.endpoint
+                );
+                said = true;
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
         // Join: the current state, or ours as the scene's first.
-        if !self.catch_up(&session, &keys).await? && !self.config.viewer {
-            self.propose(&session, &keys, now).await?;
+        if !self.catch_up(&bus, false).await? && !self.config.viewer {
+            self.propose(&bus, now).await?;
         }
         self.stats.joined.store(true, Ordering::Release);
         tracing::info!(
@@ -336,29 +393,32 @@ impl Task {
         while !self.stop.load(Ordering::Acquire) {
             tokio::select! {
                 s = edits.recv_async() => {
-                    let s = s.map_err(err)?;
-                    let bytes = s.payload().to_bytes();
-                    self.on_state(&bytes);
+                    let s = s.map_err(zerr)?;
+                    self.on_state(&s.payload().to_bytes(), false);
                 }
                 v = verdicts.recv_async() => {
-                    let v = v.map_err(err)?;
-                    self.on_verdict(&v.payload().to_bytes());
+                    let v = v.map_err(zerr)?;
+                    if self.on_verdict(&v.payload().to_bytes()) {
+                        // Refused as made from a state that is not the scene's: take the
+                        // scene's, whatever its version (a restarted keeper numbers anew).
+                        self.catch_up(&bus, true).await?;
+                    }
                 }
                 k = status.recv_async() => {
-                    let k = k.map_err(err)?;
+                    let k = k.map_err(zerr)?;
                     let b = k.payload().to_bytes();
                     self.stats.bytes_in.fetch_add(b.len() as u64, Ordering::Relaxed);
                     match serde_json::from_slice::<KeeperStatus>(&b) {
                         Ok(k) if k.version > self.book.version() => {
                             tracing::info!("shared scene at version {}, this station at {}: catching up", k.version, self.book.version());
-                            self.catch_up(&session, &keys).await?;
+                            self.catch_up(&bus, false).await?;
                         }
                         Ok(_) => {}
                         Err(e) => tracing::warn!("a keeper status that is not one: {e}"),
                     }
                 }
                 t = others.recv_async() => {
-                    let t = t.map_err(err)?;
+                    let t = t.map_err(zerr)?;
                     let from = super::station_of(t.key_expr().as_str()).map(str::to_owned);
                     if let Some(from) = from.filter(|f| *f != self.config.station)
                         && let Ok(t) = serde_json::from_slice::<Telemetry>(&t.payload().to_bytes())
@@ -372,43 +432,45 @@ impl Task {
                 p = outbox.recv() => {
                     let Some(p) = p else { break };
                     if !self.config.viewer {
-                        self.propose(&session, &keys, p).await?;
+                        self.propose(&bus, p).await?;
                     }
                 }
                 _ = tick.tick() => {
                     let json = serde_json::to_vec(&self.telemetry()).expect("telemetry serialises");
                     self.stats.bytes_out.fetch_add(json.len() as u64, Ordering::Relaxed);
                     self.stats.telemetry.fetch_add(1, Ordering::Relaxed);
-                    telemetry.put(json).await.map_err(err)?;
+                    telemetry.put(json).await.map_err(zerr)?;
+                    self.resend(&bus).await?;
                 }
             }
         }
-        session.close().await.map_err(err)?;
+        session.close().await.map_err(zerr)?;
         Ok(())
     }
 
-    /// Ask for the current state and take it if it is newer. Whether the scene has one.
-    async fn catch_up(&mut self, session: &zenoh::Session, keys: &Keys) -> anyhow::Result<bool> {
-        let replies = session
-            .get(keys.state())
-            .timeout(Duration::from_secs(5))
+    /// Ask for the scene's current state and take it: if newer, or with `any`, whatever its
+    /// version. Whether the scene has one.
+    async fn catch_up(&mut self, bus: &Bus, any: bool) -> anyhow::Result<bool> {
+        let replies = bus
+            .state
+            .get()
             .await
             .map_err(|e| anyhow::anyhow!("asking the scene's state: {e}"))?;
-        let mut any = false;
+        let mut found = false;
         while let Ok(r) = replies.recv_async().await {
             match r.result() {
                 Ok(s) => {
-                    any = true;
-                    self.on_state(&s.payload().to_bytes());
+                    found = true;
+                    self.on_state(&s.payload().to_bytes(), any);
                 }
                 Err(e) => tracing::warn!("the scene's state: {:?}", e.payload().try_to_string()),
             }
         }
-        Ok(any)
+        Ok(found)
     }
 
-    /// An ordered state arrived (an edit or a catch-up's answer).
-    fn on_state(&mut self, bytes: &[u8]) {
+    /// An ordered state arrived (an edit, or the answer to a catch-up: `current`).
+    fn on_state(&mut self, bytes: &[u8], current: bool) {
         self.stats
             .bytes_in
             .fetch_add(bytes.len() as u64, Ordering::Relaxed);
@@ -427,12 +489,23 @@ impl Task {
                 return;
             }
         };
-        match self.book.on_ordered(&s.id, s.seq) {
+        let what = if current {
+            self.book.take_current(&s.id, s.seq)
+        } else {
+            self.book.on_ordered(&s.id, s.seq)
+        };
+        match what {
             OnOrdered::Ignore => {}
             OnOrdered::Mine => {
+                self.answered(&s.id, true);
                 self.stats.version.store(s.seq, Ordering::Relaxed);
             }
             OnOrdered::Adopt => {
+                // Whatever of ours is waiting was made from an older state: its refusal comes;
+                // it is not sent again.
+                for u in &mut self.unanswered {
+                    u.2 = None;
+                }
                 self.stats.version.store(s.seq, Ordering::Relaxed);
                 let arrived = unix_ns().saturating_sub(s.t_unix_ns) as f64 / 1e6;
                 self.stats
@@ -478,36 +551,56 @@ impl Task {
         }
     }
 
-    fn on_verdict(&mut self, bytes: &[u8]) {
+    /// A verdict on one of this station's proposals. Whether it was refused as stale.
+    fn on_verdict(&mut self, bytes: &[u8]) -> bool {
         self.stats
             .bytes_in
             .fetch_add(bytes.len() as u64, Ordering::Relaxed);
         let v = match serde_json::from_slice::<VerdictMessage>(bytes) {
             Ok(v) => v,
-            Err(e) => return tracing::warn!("a verdict that is not one: {e}"),
-        };
-        if v.accepted {
-            self.stats.accepted.fetch_add(1, Ordering::Release);
-        } else {
-            self.stats.refused.fetch_add(1, Ordering::Release);
-            tracing::warn!(
-                "the keeper refused {} ({}): {}; the scene's newer state replaces it",
-                v.id.as_deref().unwrap_or("a commit"),
-                v.reason.as_deref().unwrap_or("?"),
-                v.message.as_deref().unwrap_or("")
-            );
-            if let (Some(station), Some(counter)) = (v.station, v.counter) {
-                self.book.on_refused(&StateId { station, counter });
+            Err(e) => {
+                tracing::warn!("a verdict that is not one: {e}");
+                return false;
             }
+        };
+        let id = match (v.station, v.counter) {
+            (Some(station), Some(counter)) => Some(StateId { station, counter }),
+            _ => None,
+        };
+        let first = id.as_ref().is_some_and(|id| self.answered(id, v.accepted));
+        if v.accepted || !first {
+            return false; // accepted, or an answer to a proposal sent again
         }
+        tracing::warn!(
+            "the keeper refused {} ({}): {}; the scene's state replaces it",
+            v.id.as_deref().unwrap_or("a commit"),
+            v.reason.as_deref().unwrap_or("?"),
+            v.message.as_deref().unwrap_or("")
+        );
+        if let Some(id) = &id {
+            self.book.on_refused(id);
+        }
+        v.reason.as_deref() == Some("stale")
     }
 
-    async fn propose(
-        &mut self,
-        session: &zenoh::Session,
-        keys: &Keys,
-        p: SharedPoints,
-    ) -> anyhow::Result<()> {
+    /// Count the answer to proposal `id` (the keeper's verdict, or its ordered state seen
+    /// first), once: whether this was the first.
+    fn answered(&mut self, id: &StateId, accepted: bool) -> bool {
+        let Some(at) = self.unanswered.iter().position(|u| u.0 == *id) else {
+            return false;
+        };
+        self.unanswered.remove(at);
+        let count = if accepted {
+            &self.stats.accepted
+        } else {
+            &self.stats.refused
+        };
+        count.fetch_add(1, Ordering::Release);
+        true
+    }
+
+    async fn propose(&mut self, bus: &Bus, p: SharedPoints) -> anyhow::Result<()> {
+        let made_from = self.book.expected_version();
         let Some((id, parent)) = self.book.commit(p.version) else {
             self.stats.superseded.fetch_add(1, Ordering::Relaxed);
             tracing::info!(
@@ -517,7 +610,7 @@ impl Task {
         };
         let state = SharedState {
             kind: Kind::Proposal,
-            seq: 0,
+            seq: made_from,
             t_unix_ns: unix_ns(),
             scene: self.config.scene.clone(),
             object: p.object,
@@ -529,15 +622,39 @@ impl Task {
             colors: p.colors,
         };
         let bytes = wire::encode(&state);
+        self.stats.proposed.fetch_add(1, Ordering::Release);
+        self.unanswered
+            .push((state.id.clone(), bytes.clone(), Some(Instant::now())));
+        self.send(bus, &bytes).await
+    }
+
+    async fn send(&self, bus: &Bus, bytes: &[u8]) -> anyhow::Result<()> {
         self.stats
             .bytes_out
             .fetch_add(bytes.len() as u64, Ordering::Relaxed);
-        self.stats.proposed.fetch_add(1, Ordering::Release);
-        session
-            .put(keys.propose(&self.config.station), bytes)
-            .congestion_control(CongestionControl::Block)
-            .await
-            .map_err(|e| anyhow::anyhow!("proposing {}: {e}", state.id))
+        bus.proposals.put(bytes.to_vec()).await.map_err(|e| {
+            anyhow::anyhow!(
+                "proposing on {}: {e}",
+                bus.keys.propose(&self.config.station)
+            )
+        })
+    }
+
+    /// Send again the proposals whose answer is overdue (the keeper answers a repeat as it did).
+    async fn resend(&mut self, bus: &Bus) -> anyhow::Result<()> {
+        let now = Instant::now();
+        for i in 0..self.unanswered.len() {
+            if self.unanswered[i]
+                .2
+                .is_some_and(|t| now.duration_since(t) >= RESEND_AFTER)
+            {
+                tracing::info!("no answer to {} yet: sent again", self.unanswered[i].0);
+                self.unanswered[i].2 = Some(now);
+                let bytes = self.unanswered[i].1.clone();
+                self.send(bus, &bytes).await?;
+            }
+        }
+        Ok(())
     }
 
     fn telemetry(&self) -> Telemetry {

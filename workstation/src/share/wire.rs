@@ -6,7 +6,8 @@
 //! 0       4           magic "HSS1"
 //! 4       1           kind: 1 proposal (a station's commit), 2 ordered (the keeper's)
 //! 5       3           zero
-//! 8       8           seq: u64, the scene's version (0 in a proposal; 1, 2, … once ordered)
+//! 8       8           seq: u64, the scene's version once ordered (1, 2, …); in a proposal,
+//!                     the version it was made from (0: none)
 //! 16      8           t: u64, the author's clock at the commit (ns since the UNIX epoch)
 //! 24      2+len       scene name (u16 length, UTF-8)
 //! …       2+len       object name (the sculpted one)
@@ -65,7 +66,7 @@ impl std::fmt::Display for StateId {
 pub struct SharedState {
     /// Proposal or ordered.
     pub kind: Kind,
-    /// The scene's version (0 in a proposal).
+    /// The scene's version once ordered; in a proposal, the version it was made from.
     pub seq: u64,
     /// The author's clock at the commit, ns since the UNIX epoch (edit propagation is measured
     /// against it on one machine or with synchronised clocks).
