@@ -6,7 +6,7 @@ Usage:
                        [--ca ROUTER.pem --cert ME.pem --key ME.key]
                        [--open-timeout S] [--print]
 
-Every station of a shared scene publishes its telemetry about 100 times a second on
+Every station of a shared scene publishes its telemetry 125 times a second on
 `haptic-sculpt/<SCENE>/telemetry/<STATION>`, one UTF-8 JSON object per sample:
 
     {"station": "a", "t_ns": 123, "cursor": [x, y, z] or null, "force": [fx, fy, fz],
@@ -33,8 +33,8 @@ another station than its key counts in that station's `malformed` (the key's las
 names the station) and is otherwise ignored. Fields beyond those above are allowed.
 
 A `tls/` endpoint needs the station's mutual-TLS files, as `workstation share-identity` makes
-them: `--ca` the router's certificate (pinned as the only root, so the name in it need not
-match the address), `--cert` and `--key` a certificate the router lists and its key.
+them: `--ca` the router's certificate (the host in `tls/HOST:PORT` must be one of its names,
+as for the stations), `--cert` and `--key` a certificate the router lists and its key.
 
 `--print` also prints each sample as a line for people. Ctrl-C ends the recording early:
 the file is still written and the exit status is 130.
@@ -209,9 +209,10 @@ def client_config(zenoh: Any, args: argparse.Namespace) -> Any:
         put(f"{k}/connect_certificate", str(args.cert))
         put(f"{k}/connect_private_key", str(args.key))
         put(f"{k}/enable_mtls", True)
-        # The router's certificate is pinned as the only root: its name need not match the
-        # address this machine reaches it by.
-        put(f"{k}/verify_name_on_connect", False)
+        # Zenoh 1.10 trusts the public web PKI roots beside the router's certificate, so its
+        # name is checked too (as the stations do): the endpoint's host must be one of the
+        # router certificate's names (`share-identity router --host NAME`).
+        put(f"{k}/verify_name_on_connect", True)
     return c
 
 

@@ -432,3 +432,187 @@ fn two_stations_sculpt_in_turn_feel_each_other_and_every_station_ends_identical(
         assert_eq!(t["stations"][s]["malformed"].as_u64(), Some(0), "{t}");
     }
 }
+
+/// A client session of the test under `tls` (giving up after 3 s instead of retrying).
+fn open_tls(
+    runtime: &tokio::runtime::Runtime,
+    endpoint: &str,
+    tls: &workstation::share::bus::StationTls,
+) -> zenoh::Result<zenoh::Session> {
+    let mut config = workstation::share::bus::client_config(endpoint, Some(tls)).unwrap();
+    config.insert_json5("connect/timeout_ms", "3000").unwrap();
+    runtime.block_on(async { zenoh::open(config).await })
+}
+
+fn proposal(station: &str, counter: u64) -> Vec<u8> {
+    use workstation::share::wire::{Kind, SharedState, StateId, encode};
+    encode(&SharedState {
+        kind: Kind::Proposal,
+        seq: 0,
+        t_unix_ns: 0,
+        scene: "lab".into(),
+        object: "ball".into(),
+        visible: vec!["ball".into()],
+        id: StateId {
+            station: station.into(),
+            counter,
+        },
+        parent: None,
+        positions: vec![DVec3::new(0.0, 0.05, 0.0)],
+        normals: vec![[0.0, 1.0, 0.0]],
+        colors: vec![[1, 2, 3]],
+    })
+}
+
+#[test]
+fn under_mutual_tls_only_listed_stations_join_each_under_its_own_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ids = d.join("ids");
+    let auth = d.join("authorized_stations.pem");
+    for (name, listed) in [("router", false), ("a", true), ("b", true), ("x", false)] {
+        let mut cmd = Command::new(binary("workstation"));
+        cmd.args(["share-identity", name, "--out"]).arg(&ids);
+        if name == "router" {
+            // The name the stations reach it by, which they check.
+            cmd.args(["--host", "localhost"]);
+        }
+        if listed {
+            cmd.arg("--authorize-in").arg(&auth);
+        }
+        let out = cmd.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let port = free_port();
+    let router_log = d.join("router.log");
+    let mut cmd = Command::new(binary("workstation"));
+    cmd.args(["share-router", "--listen", &format!("tls/127.0.0.1:{port}")])
+        .arg("--tls-cert")
+        .arg(ids.join("router.pem"))
+        .arg("--tls-key")
+        .arg(ids.join("router.key"))
+        .arg("--authorized")
+        .arg(&auth);
+    let _router = spawn_logged(cmd, &router_log);
+    let endpoint = format!("tls/localhost:{port}");
+    let tls = |name: &str| workstation::share::bus::StationTls {
+        router_cert: ids.join("router.pem"),
+        cert: ids.join(format!("{name}.pem")),
+        key: ids.join(format!("{name}.key")),
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .unwrap();
+    // The router comes up.
+    let t0 = Instant::now();
+    let a = loop {
+        match open_tls(&runtime, &endpoint, &tls("a")) {
+            Ok(s) => break s,
+            Err(e) => assert!(
+                t0.elapsed() < Duration::from_secs(20),
+                "a listed station cannot join: {e}\n{}",
+                logs(&[&router_log])
+            ),
+        }
+    };
+    // An unlisted peer's handshake fails: no session, nothing heard, nothing said.
+    assert!(
+        open_tls(&runtime, &endpoint, &tls("x")).is_err(),
+        "an unlisted station opened a session"
+    );
+    // So does the Python recorder with its certificate.
+    let out = Command::new(python())
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("python/share_telemetry.py"))
+        .args(["--connect", &endpoint, "--scene", "lab", "--seconds", "1"])
+        .args(["--open-timeout", "2", "--out"])
+        .arg(d.join("x.json"))
+        .arg("--ca")
+        .arg(ids.join("router.pem"))
+        .arg("--cert")
+        .arg(ids.join("x.pem"))
+        .arg("--key")
+        .arg(ids.join("x.key"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let keys = Keys::new("lab");
+    let (verdicts_a, verdicts_b, edits, status) = runtime.block_on(async {
+        (
+            a.declare_subscriber(keys.verdicts("a")).await.unwrap(),
+            a.declare_subscriber(keys.verdicts("b")).await.unwrap(),
+            a.declare_subscriber(keys.edits()).await.unwrap(),
+            a.declare_subscriber(keys.keeper()).await.unwrap(),
+        )
+    });
+    let put = |key: String, bytes: Vec<u8>| {
+        runtime.block_on(async { a.put(key, bytes).await.unwrap() });
+    };
+    std::thread::sleep(Duration::from_millis(500));
+    // a speaks for b: dropped by the router's access control, never judged.
+    put(keys.propose("b"), proposal("b", 1));
+    // A malformed proposal: refused by name and counted, never applied.
+    put(keys.propose("a"), b"HSS1 not a state".to_vec());
+    let verdict = |sub: &zenoh::pubsub::Subscriber<
+        zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>,
+    >| {
+        runtime.block_on(async {
+            tokio::time::timeout(Duration::from_secs(5), sub.recv_async())
+                .await
+                .ok()
+                .map(|s| {
+                    serde_json::from_slice::<workstation::share::VerdictMessage>(
+                        &s.unwrap().payload().to_bytes(),
+                    )
+                    .unwrap()
+                })
+        })
+    };
+    let v = verdict(&verdicts_a).expect("a verdict on the malformed proposal");
+    assert!(!v.accepted);
+    assert_eq!(v.reason.as_deref(), Some("unknown kind"), "{v:?}");
+    // a's own proposal is ordered: version 1, a's.
+    put(keys.propose("a"), proposal("a", 1));
+    let v = verdict(&verdicts_a).expect("a verdict on a's proposal");
+    assert!(v.accepted && v.seq == Some(1), "{v:?}");
+    let e = runtime
+        .block_on(async { tokio::time::timeout(Duration::from_secs(5), edits.recv_async()).await })
+        .expect("the ordered state")
+        .unwrap();
+    let state = workstation::share::wire::decode(&e.payload().to_bytes()).unwrap();
+    assert_eq!((state.seq, state.id.station.as_str()), (1, "a"));
+    // Nothing was ever judged for b, and the keeper counts the malformed one by name.
+    assert!(
+        verdict(&verdicts_b).is_none(),
+        "a proposal under b's name was judged"
+    );
+    let t0 = Instant::now();
+    loop {
+        let s = runtime
+            .block_on(async {
+                tokio::time::timeout(Duration::from_secs(2), status.recv_async()).await
+            })
+            .expect("the keeper's status")
+            .unwrap();
+        let s: KeeperStatus = serde_json::from_slice(&s.payload().to_bytes()).unwrap();
+        if s.version == 1 {
+            assert_eq!(s.refusals.get("unknown kind"), Some(&1), "{s:?}");
+            assert_eq!(s.refusals.values().sum::<u64>(), 1, "{s:?}");
+            assert_eq!(s.current.as_deref(), Some("a#1"));
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(5), "{s:?}");
+    }
+    runtime.block_on(async { a.close().await.unwrap() });
+}

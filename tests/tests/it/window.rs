@@ -630,3 +630,103 @@ fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
     x.xdotool(&["key", "ctrl+q"]);
     wait_exit(&mut child, dir.path(), Duration::from_secs(30));
 }
+
+#[test]
+fn view_share_draws_another_stations_cursor_where_it_is() {
+    let _slot = e2e_tests::busy_slot();
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let port = e2e_tests::free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let router_log = std::fs::File::create(dir.path().join("router.log")).unwrap();
+    let _router = e2e_tests::ChildGuard(Some(
+        Command::new(binary("workstation"))
+            .args(["share-router", "--listen", &endpoint])
+            .stdout(router_log.try_clone().unwrap())
+            .stderr(router_log)
+            .spawn()
+            .unwrap(),
+    ));
+    // Another station, `far`, as the bus sees it: its telemetry with its cursor on the ball's
+    // top, 50 times a second.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let publisher = {
+        let (stop, endpoint) = (stop.clone(), endpoint.clone());
+        std::thread::spawn(move || {
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(1)
+                .enable_all()
+                .build()
+                .unwrap();
+            rt.block_on(async {
+                let config = workstation::share::bus::client_config(&endpoint, None).unwrap();
+                let session = zenoh::open(config).await.unwrap();
+                let key = workstation::share::Keys::new("demo").telemetry("far");
+                let mut t = workstation::share::Telemetry {
+                    station: "far".into(),
+                    t_ns: 0,
+                    cursor: Some([0.0, 0.052, 0.0]),
+                    force: [0.0; 3],
+                    buttons: 0,
+                    tool: Some("touch".into()),
+                    force_loop_hz: 1000.0,
+                    sim_hz: 1000.0,
+                    rtt_us: 0.0,
+                    version: 0,
+                };
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    t.t_ns += 20_000_000;
+                    session
+                        .put(&key, serde_json::to_vec(&t).unwrap())
+                        .await
+                        .unwrap();
+                    tokio::time::sleep(Duration::from_millis(20)).await;
+                }
+                session.close().await.unwrap();
+            });
+        })
+    };
+    let shot = dir.path().join("window.png");
+    let state_file = dir.path().join("state.json");
+    let mut child = view(
+        &x,
+        dir.path(),
+        &[
+            "--share",
+            &endpoint,
+            "--station",
+            "c",
+            "--screenshot",
+            shot.to_str().unwrap(),
+            "--frames",
+            "60",
+            "--state",
+            state_file.to_str().unwrap(),
+        ],
+    );
+    wait_exit(&mut child, dir.path(), Duration::from_secs(120));
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    publisher.join().unwrap();
+    let s = state(&state_file).expect("the state file");
+    let others = s["others"].as_array().expect("others").clone();
+    assert_eq!(others.len(), 1, "{s}");
+    assert_eq!(others[0][0].as_str(), Some("far"));
+    let (cx, cy) = xy(&others[0][1]).expect("far's cursor is in view");
+    // Its ring (orange) is drawn there, and nowhere else is orange.
+    let pic = Picture::load(&shot);
+    let orange = |[r, g, b]: [u8; 3]| r > 220 && (130..210).contains(&g) && b < 90;
+    let (x0, y0) = (
+        (cx as usize).saturating_sub(12),
+        (cy as usize).saturating_sub(12),
+    );
+    let near = pic.fraction((x0, x0 + 24), (y0, y0 + 24), orange);
+    let everywhere = pic.fraction((0, pic.width), (0, pic.height), orange);
+    assert!(
+        near > 0.08,
+        "far's cursor ring covers {near:.3} around ({cx}, {cy})"
+    );
+    assert!(
+        everywhere * (pic.width * pic.height) as f64 <= 2500.0,
+        "orange elsewhere: {everywhere:.4} of the window"
+    );
+}

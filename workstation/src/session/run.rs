@@ -155,7 +155,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let mut outcome = Ok(());
     if !scene.phase.is_empty() && server.is_some() {
         let deadline = started + Duration::from_secs_f64(args.seconds.unwrap_or(1e7));
-        while !(ws.connected() && station.as_ref().is_none_or(Station::joined)) && !done() {
+        while !(done() || ws.connected() && station.as_ref().is_none_or(Station::joined)) {
             std::thread::sleep(Duration::from_millis(20));
         }
         if !done() {

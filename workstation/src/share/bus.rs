@@ -37,6 +37,8 @@ pub struct RouterTls {
     pub key: PathBuf,
     /// The listed stations' certificates (PEM, concatenated).
     pub authorized: PathBuf,
+    /// Which of them are other sites' routers, relaying their stations.
+    pub linked: Vec<String>,
 }
 
 fn base(mode: &str) -> anyhow::Result<zenoh::Config> {
@@ -113,9 +115,10 @@ pub fn client_config(endpoint: &str, tls: Option<&StationTls>) -> anyhow::Result
                 &existing(&t.key, "the station's key")?,
             )?;
             set(&mut c, &format!("{k}/enable_mtls"), "true")?;
-            // The router's certificate is pinned as the only root: its name need not match the
-            // address a site reaches it by.
-            set(&mut c, &format!("{k}/verify_name_on_connect"), "false")?;
+            // Zenoh 1.10 trusts the public web PKI roots beside the router's certificate, so the
+            // name is checked too: the endpoint's host must be one of the router certificate's
+            // names (`share-identity router --host NAME`).
+            set(&mut c, &format!("{k}/verify_name_on_connect"), "true")?;
         }
         (true, None) => anyhow::bail!(
             "{endpoint} is a TLS endpoint: give --share-ca (the router's certificate), --share-cert and --share-key"
@@ -180,9 +183,17 @@ pub fn router_config(
                 &format!("{k}/connect_private_key"),
                 &existing(&t.key, "the router's key")?,
             )?;
-            set(&mut c, &format!("{k}/verify_name_on_connect"), "false")?;
+            // Linked routers (--connect) are checked by name too (see `client_config`).
+            set(&mut c, &format!("{k}/verify_name_on_connect"), "true")?;
             let names = authorized_names(&t.authorized)?;
-            set(&mut c, "access_control", &access_control(&names))?;
+            for l in &t.linked {
+                anyhow::ensure!(
+                    names.contains(l),
+                    "--linked-router {l}: no certificate named `{l}` in {} (a linked router is listed like a station)",
+                    t.authorized.display()
+                );
+            }
+            set(&mut c, "access_control", &access_control(&names, &t.linked))?;
         }
         (true, None) => anyhow::bail!(
             "a tls/ endpoint needs --tls-cert, --tls-key and --authorized (the stations' certificates)"
@@ -231,8 +242,10 @@ pub fn authorized_names(path: &Path) -> anyhow::Result<Vec<String>> {
 }
 
 /// Access control: every listed station reads everything under the root and writes only under
-/// its own name; the router's own keeper is not a link and is not filtered.
-pub fn access_control(stations: &[String]) -> String {
+/// its own name; a linked site's router (`linked`, also listed) writes proposals and telemetry
+/// under any name, relaying its own site's stations (whose names its own access control
+/// checks). The router's own keeper is not a link and is not filtered.
+pub fn access_control(stations: &[String], linked: &[String]) -> String {
     let mut rules = vec![
         format!(
             r#"{{ id: "read", messages: ["declare_subscriber", "query", "liveliness_query", "declare_liveliness_subscriber"], flows: ["ingress"], permission: "allow", key_exprs: ["{ROOT}/**"] }}"#
@@ -243,16 +256,24 @@ pub fn access_control(stations: &[String]) -> String {
     ];
     let mut subjects = Vec::new();
     let mut policies = Vec::new();
+    rules.push(format!(
+        r#"{{ id: "relay", messages: ["put"], flows: ["ingress"], permission: "allow", key_exprs: ["{ROOT}/*/propose/*", "{ROOT}/*/telemetry/*"] }}"#
+    ));
     for (i, s) in stations.iter().enumerate() {
-        rules.push(format!(
-            r#"{{ id: "own-{i}", messages: ["put", "liveliness_token"], flows: ["ingress"], permission: "allow", key_exprs: ["{ROOT}/*/propose/{s}", "{ROOT}/*/telemetry/{s}", "{ROOT}/*/presence/{s}"] }}"#
-        ));
+        let own = if linked.contains(s) {
+            "relay".to_owned()
+        } else {
+            rules.push(format!(
+                r#"{{ id: "own-{i}", messages: ["put"], flows: ["ingress"], permission: "allow", key_exprs: ["{ROOT}/*/propose/{s}", "{ROOT}/*/telemetry/{s}"] }}"#
+            ));
+            format!("own-{i}")
+        };
         subjects.push(format!(
             r#"{{ id: "s-{i}", cert_common_names: [{}] }}"#,
             json(s)
         ));
         policies.push(format!(
-            r#"{{ rules: ["read", "deliver", "own-{i}"], subjects: ["s-{i}"] }}"#
+            r#"{{ rules: ["read", "deliver", "{own}"], subjects: ["s-{i}"] }}"#
         ));
     }
     format!(
@@ -296,9 +317,16 @@ mod tests {
     #[test]
     fn the_access_control_is_valid_zenoh_configuration() {
         let mut c = zenoh::Config::default();
-        let ac = access_control(&["a".into(), "west-2".into()]);
+        let ac = access_control(
+            &["a".into(), "west-2".into(), "site-b".into()],
+            &["site-b".into()],
+        );
         c.insert_json5("access_control", &ac)
             .unwrap_or_else(|e| panic!("{e}: {ac}"));
         assert!(ac.contains("haptic-sculpt/*/propose/west-2"));
+        assert!(
+            ac.contains(r#"rules: ["read", "deliver", "relay"], subjects: ["s-2"]"#),
+            "{ac}"
+        );
     }
 }

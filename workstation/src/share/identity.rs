@@ -18,11 +18,16 @@ pub struct IdentityArgs {
     /// Also add the certificate to this list of authorized stations (created if missing).
     #[arg(long, value_name = "FILE")]
     pub authorize_in: Option<PathBuf>,
+    /// A host name or address the certificate is valid for, besides NAME (repeatable): for the
+    /// router, each name stations connect to it by (they check it), e.g. `--host localhost`
+    /// on one machine, `--host lab-a.example` across a network. Stations need none.
+    #[arg(long, value_name = "HOST")]
+    pub host: Vec<String>,
 }
 
 /// `workstation share-identity`.
 pub fn share_identity_command(args: &IdentityArgs) -> anyhow::Result<()> {
-    let (cert, key) = write_identity(&args.out, &args.name)?;
+    let (cert, key) = write_identity(&args.out, &args.name, &args.host)?;
     println!("wrote {} and {}", cert.display(), key.display());
     if let Some(list) = &args.authorize_in {
         let pem = std::fs::read_to_string(&cert)?;
@@ -39,14 +44,19 @@ pub fn share_identity_command(args: &IdentityArgs) -> anyhow::Result<()> {
 }
 
 /// Make `dir/name.pem` and `dir/name.key` (the key readable by its owner only).
-pub fn write_identity(dir: &Path, name: &str) -> anyhow::Result<(PathBuf, PathBuf)> {
+pub fn write_identity(
+    dir: &Path,
+    name: &str,
+    hosts: &[String],
+) -> anyhow::Result<(PathBuf, PathBuf)> {
     anyhow::ensure!(
         super::wire::valid_name(name),
         "name `{name}`: use 1-200 letters, digits, - _ or ."
     );
     let key = rcgen::KeyPair::generate().context("generating a key")?;
-    let mut params = rcgen::CertificateParams::new(vec![name.to_owned(), "localhost".to_owned()])
-        .context("certificate names")?;
+    let mut names = vec![name.to_owned(), "localhost".to_owned()];
+    names.extend(hosts.iter().cloned());
+    let mut params = rcgen::CertificateParams::new(names).context("certificate names")?;
     params.subject_alt_names.push(rcgen::SanType::IpAddress(
         std::net::Ipv4Addr::LOCALHOST.into(),
     ));
@@ -95,8 +105,8 @@ mod tests {
     #[test]
     fn an_identity_names_its_station_and_lists_readably() {
         let dir = tempfile::tempdir().unwrap();
-        let (cert, _) = write_identity(dir.path(), "west-1").unwrap();
-        let (cert2, _) = write_identity(dir.path(), "east").unwrap();
+        let (cert, _) = write_identity(dir.path(), "west-1", &[]).unwrap();
+        let (cert2, _) = write_identity(dir.path(), "east", &["lab-b.example".into()]).unwrap();
         let list = dir.path().join("authorized.pem");
         let both =
             std::fs::read_to_string(&cert).unwrap() + &std::fs::read_to_string(&cert2).unwrap();
@@ -105,6 +115,6 @@ mod tests {
             super::super::bus::authorized_names(&list).unwrap(),
             ["west-1", "east"]
         );
-        assert!(write_identity(dir.path(), "a/b").is_err());
+        assert!(write_identity(dir.path(), "a/b", &[]).is_err());
     }
 }

@@ -23,7 +23,7 @@
 //! - `haptic-sculpt/<scene>/verdicts/<station>`: the keeper's answer to a station (JSON);
 //! - `haptic-sculpt/<scene>/keeper`: the keeper's status twice a second (JSON);
 //! - `haptic-sculpt/<scene>/telemetry/<station>`: each station's cursor, force, button, tool,
-//!   rates and round trip, JSON at 100 Hz ([`Telemetry`]).
+//!   rates and round trip, JSON at 125 Hz ([`Telemetry`]).
 
 pub mod book;
 pub mod bus;

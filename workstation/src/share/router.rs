@@ -43,6 +43,10 @@ pub struct RouterArgs {
     /// name is the station's name, the only name it may edit and report under.
     #[arg(long, value_name = "FILE", requires = "tls_cert")]
     pub authorized: Option<PathBuf>,
+    /// Another site's router (its certificate's common name, listed in --authorized) that
+    /// relays its stations' proposals and telemetry (repeatable); see deploy/zenohd/.
+    #[arg(long, value_name = "NAME", requires = "authorized")]
+    pub linked_router: Vec<String>,
     /// Keep each scene's current state in DIR (read back at start).
     #[arg(long, value_name = "DIR")]
     pub store: Option<PathBuf>,
@@ -63,6 +67,7 @@ pub fn share_router_command(args: &RouterArgs) -> anyhow::Result<()> {
         cert: cert.clone(),
         key: args.tls_key.clone().expect("clap requires it"),
         authorized: args.authorized.clone().expect("clap requires it"),
+        linked: args.linked_router.clone(),
     });
     let config = bus::router_config(&args.listen, &args.connect, tls.as_ref())?;
     if let Some(t) = &tls {

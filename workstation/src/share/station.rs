@@ -132,6 +132,8 @@ pub struct ShareSummary {
     pub arrival_ms_p50: Option<f64>,
     /// p99.
     pub arrival_ms_p99: Option<f64>,
+    /// Every arrival measured (ms).
+    pub arrival_ms: Vec<f64>,
 }
 
 /// A running share thread.
@@ -237,6 +239,7 @@ impl Station {
             propagation_ms: p,
             arrival_ms_p50: percentile(&a, 0.5),
             arrival_ms_p99: percentile(&a, 0.99),
+            arrival_ms: a,
         }
     }
 

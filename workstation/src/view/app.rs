@@ -43,6 +43,9 @@ struct StateFile<'a> {
     region_centre: Option<[f32; 2]>,
     /// The mouse as the stylus (absent when a device drives the cursor).
     mouse: Option<MouseState>,
+    /// Other stations of a shared scene (`--share`): name and where its cursor is seen, in
+    /// window pixels.
+    others: Vec<(String, Option<[f32; 2]>)>,
     messages: &'a VecDeque<String>,
 }
 
@@ -292,6 +295,12 @@ impl ViewApp {
                     buttons,
                 }
             }),
+            others: self.link.remote.as_ref().map_or_else(Vec::new, |r| {
+                r.other_cursors(std::time::Duration::from_secs(1))
+                    .into_iter()
+                    .map(|(name, at)| (name, self.seen(DVec3::from(at))))
+                    .collect()
+            }),
             messages: &self.messages,
         };
         let tmp = path.with_extension("json.tmp");
@@ -338,6 +347,29 @@ impl ViewApp {
             s.force_loop.rate_hz(),
             s.sim_loop.rate_hz()
         ));
+        if let Some(r) = &self.link.remote {
+            let others: Vec<_> = r
+                .other_cursors(std::time::Duration::from_secs(1))
+                .into_iter()
+                .map(|(name, _)| name)
+                .collect();
+            ui.label(format!(
+                "shared scene: {} · version {} · took {}, proposed {} · with {}",
+                if r.joined.load(Ordering::Relaxed) {
+                    "joined"
+                } else {
+                    "joining …"
+                },
+                r.version.load(Ordering::Relaxed),
+                r.adopted.load(Ordering::Relaxed),
+                r.proposed.load(Ordering::Relaxed),
+                if others.is_empty() {
+                    "nobody else".to_owned()
+                } else {
+                    others.join(", ")
+                }
+            ));
+        }
     }
 
     /// The scene view: handle the mouse, then draw.
