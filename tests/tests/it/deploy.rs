@@ -712,3 +712,22 @@ fn a_latency_run_through_netem_reproduces_the_configured_delay() {
     }
     assert_eq!(r["sessions"], 1);
 }
+
+#[test]
+fn the_second_sites_zenohd_configuration_loads_and_names_our_keys() {
+    let path = deploy_dir().join("zenohd/site-router.json5");
+    let config =
+        zenoh::Config::from_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let json = |key: &str| {
+        config
+            .get_json(key)
+            .unwrap_or_else(|e| panic!("{key}: {e}"))
+    };
+    assert_eq!(json("mode"), "\"router\"");
+    assert_eq!(json("scouting/multicast/enabled"), "false");
+    assert_eq!(json("transport/link/tls/enable_mtls"), "true");
+    assert_eq!(json("transport/link/tls/verify_name_on_connect"), "true");
+    let acl = json("access_control");
+    assert!(acl.contains("haptic-sculpt/*/propose/"), "{acl}");
+    assert!(acl.contains("\"deny\""), "{acl}");
+}

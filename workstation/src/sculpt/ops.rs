@@ -172,6 +172,12 @@ pub(crate) fn run_op(
         }
         Op::Csg { op, a, b, result } => {
             let (ia, ib) = (id(names, a)?, id(names, b)?);
+            // Objects are found by name (scripts, shared scenes): a second of a name would hide.
+            anyhow::ensure!(
+                !names.contains(result),
+                "the {op:?} of `{a}` and `{b}` would be named `{result}`, which an object is \
+                 already called: give the result another name"
+            );
             let (oa, ob) = (&scene.objects()[ia], &scene.objects()[ib]);
             let solid = solid_of;
             let (ps, rep) = csg(*op, solid(oa), solid(ob), &CsgOptions::default())?;

@@ -219,3 +219,40 @@ fn a_probe_pull_commits_a_bump_whose_points_lie_on_the_field() {
     eprintln!("13.7 mm: {height:.2} mm high, {off:.3} mm off");
     assert!(off < 0.25, "a point {off} mm off the committed surface");
 }
+
+#[test]
+fn another_stations_csg_result_is_added_shown_and_sculpted_and_its_name_is_not_reused() {
+    // Station a carves a sphere out of the ball: a new object, the ball and the primitive
+    // hidden, the region on the result.
+    let mut a = core("touch");
+    let top = DVec3::new(0.0, 0.05, 0.0);
+    a.csg_primitive(CsgOp::Difference, "sphere", 0.01, top)
+        .unwrap();
+    let state = SharedPoints {
+        version: 2,
+        ..a.shared_points()
+    };
+    assert_eq!(state.visible, std::slice::from_ref(&state.object));
+    // Station b, on the same scene file, takes it: the same points, shown alone, sculpted.
+    let mut b = core("touch");
+    b.adopt(&state).unwrap();
+    let mine = b.shared_points();
+    assert_eq!(mine.object, state.object);
+    assert_eq!(mine.positions, state.positions);
+    assert_eq!(mine.colors, state.colors);
+    assert_eq!(mine.visible, state.visible);
+    let shown: Vec<_> = b.visible().map(|o| o.positions.len()).collect();
+    assert_eq!(shown, [state.positions.len()]);
+    // Taking it again (a repeat) changes nothing; a result named like an object is refused.
+    b.adopt(&state).unwrap();
+    assert_eq!(b.shared_points().positions, state.positions);
+    let again = Op::Csg {
+        op: CsgOp::Union,
+        a: "ball".into(),
+        b: state.object.clone(),
+        result: state.object.clone(),
+    };
+    let e = b.run_op(&again).unwrap_err().to_string();
+    assert!(e.contains("already called"), "{e}");
+    assert_eq!(b.shared_points().positions, state.positions);
+}
