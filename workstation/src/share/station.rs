@@ -86,6 +86,16 @@ pub struct ShareStats {
 }
 
 impl ShareStats {
+    /// The other stations heard from within `fresh`.
+    pub fn others_heard(&self, fresh: Duration) -> Vec<String> {
+        let others = self.others.lock().expect("not poisoned");
+        others
+            .iter()
+            .filter(|(_, (_, at))| at.elapsed() <= fresh)
+            .map(|(name, _)| name.clone())
+            .collect()
+    }
+
     /// The other stations heard from within `fresh`: name and cursor (scene frame).
     pub fn other_cursors(&self, fresh: Duration) -> Vec<(String, [f64; 3])> {
         let others = self.others.lock().expect("not poisoned");

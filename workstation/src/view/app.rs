@@ -348,11 +348,7 @@ impl ViewApp {
             s.sim_loop.rate_hz()
         ));
         if let Some(r) = &self.link.remote {
-            let others: Vec<_> = r
-                .other_cursors(std::time::Duration::from_secs(1))
-                .into_iter()
-                .map(|(name, _)| name)
-                .collect();
+            let others = r.others_heard(std::time::Duration::from_secs(1));
             ui.label(format!(
                 "shared scene: {} · version {} · took {}, proposed {} · with {}",
                 if r.joined.load(Ordering::Relaxed) {
