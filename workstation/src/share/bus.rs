@@ -68,6 +68,19 @@ fn existing(p: &Path, what: &str) -> anyhow::Result<String> {
     Ok(json(&p.to_string_lossy()))
 }
 
+/// Mutual TLS with these files (`key` under `transport/link/tls`, the file, what it is for an
+/// error). Zenoh 1.10's TLS client trusts the public web PKI roots beside the given root, so the
+/// peer's name is checked too: a router's `tls/HOST:PORT` must be one of its certificate's names
+/// (`share-identity router --host NAME`).
+fn tls_files(c: &mut zenoh::Config, files: &[(&str, &Path, &str)]) -> anyhow::Result<()> {
+    let k = "transport/link/tls";
+    for (key, file, what) in files {
+        set(c, &format!("{k}/{key}"), &existing(file, what)?)?;
+    }
+    set(c, &format!("{k}/enable_mtls"), "true")?;
+    set(c, &format!("{k}/verify_name_on_connect"), "true")
+}
+
 /// Check an endpoint the way users write them: `tcp/HOST:PORT` or `tls/HOST:PORT`.
 pub fn check_endpoint(endpoint: &str) -> anyhow::Result<()> {
     let ok = endpoint
@@ -97,29 +110,18 @@ pub fn client_config(endpoint: &str, tls: Option<&StationTls>) -> anyhow::Result
     // Keep trying while the router is away (a restart): the session comes back by itself.
     set(&mut c, "connect/timeout_ms", "-1")?;
     match (endpoint.starts_with("tls/"), tls) {
-        (true, Some(t)) => {
-            let k = "transport/link/tls";
-            set(
-                &mut c,
-                &format!("{k}/root_ca_certificate"),
-                &existing(&t.router_cert, "the router's certificate")?,
-            )?;
-            set(
-                &mut c,
-                &format!("{k}/connect_certificate"),
-                &existing(&t.cert, "the station's certificate")?,
-            )?;
-            set(
-                &mut c,
-                &format!("{k}/connect_private_key"),
-                &existing(&t.key, "the station's key")?,
-            )?;
-            set(&mut c, &format!("{k}/enable_mtls"), "true")?;
-            // Zenoh 1.10 trusts the public web PKI roots beside the router's certificate, so the
-            // name is checked too: the endpoint's host must be one of the router certificate's
-            // names (`share-identity router --host NAME`).
-            set(&mut c, &format!("{k}/verify_name_on_connect"), "true")?;
-        }
+        (true, Some(t)) => tls_files(
+            &mut c,
+            &[
+                (
+                    "root_ca_certificate",
+                    &t.router_cert,
+                    "the router's certificate",
+                ),
+                ("connect_certificate", &t.cert, "the station's certificate"),
+                ("connect_private_key", &t.key, "the station's key"),
+            ],
+        )?,
         (true, None) => anyhow::bail!(
             "{endpoint} is a TLS endpoint: give --share-ca (the router's certificate), --share-cert and --share-key"
         ),
@@ -156,35 +158,21 @@ pub fn router_config(
     let any_tls = listen.iter().chain(connect).any(|e| e.starts_with("tls/"));
     match (any_tls, tls) {
         (true, Some(t)) => {
-            let k = "transport/link/tls";
-            set(
+            tls_files(
                 &mut c,
-                &format!("{k}/listen_certificate"),
-                &existing(&t.cert, "the router's certificate")?,
+                &[
+                    ("listen_certificate", &t.cert, "the router's certificate"),
+                    ("listen_private_key", &t.key, "the router's key"),
+                    (
+                        "root_ca_certificate",
+                        &t.authorized,
+                        "the authorized stations",
+                    ),
+                    // Its own links to other routers (--connect) present the same identity.
+                    ("connect_certificate", &t.cert, "the router's certificate"),
+                    ("connect_private_key", &t.key, "the router's key"),
+                ],
             )?;
-            set(
-                &mut c,
-                &format!("{k}/listen_private_key"),
-                &existing(&t.key, "the router's key")?,
-            )?;
-            set(
-                &mut c,
-                &format!("{k}/root_ca_certificate"),
-                &existing(&t.authorized, "the authorized stations")?,
-            )?;
-            set(&mut c, &format!("{k}/enable_mtls"), "true")?;
-            set(
-                &mut c,
-                &format!("{k}/connect_certificate"),
-                &existing(&t.cert, "the router's certificate")?,
-            )?;
-            set(
-                &mut c,
-                &format!("{k}/connect_private_key"),
-                &existing(&t.key, "the router's key")?,
-            )?;
-            // Linked routers (--connect) are checked by name too (see `client_config`).
-            set(&mut c, &format!("{k}/verify_name_on_connect"), "true")?;
             let names = authorized_names(&t.authorized)?;
             for l in &t.linked {
                 anyhow::ensure!(
