@@ -179,10 +179,18 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             let s = ws.stats();
             let shared = station.as_ref().map_or(String::new(), |st| {
                 let v = st.summary();
-                format!(
-                    " · shared `{}` v{} (took {}, proposed {}, refused {})",
-                    v.scene, v.version, v.adopted, v.proposed, v.refused
-                )
+                if st.joined() {
+                    format!(
+                        " · shared `{}` v{} (took {}, proposed {}, refused {})",
+                        v.scene, v.version, v.adopted, v.proposed, v.refused
+                    )
+                } else {
+                    format!(
+                        " · shared `{}`: not joined yet (is `workstation share-router` running at {}?)",
+                        v.scene,
+                        args.share.share.as_deref().unwrap_or_default()
+                    )
+                }
             });
             println!(
                 "{} force {:.0} Hz (p99 {:.0} µs) · sim {:.0} Hz · rtt p50 {:.0} µs · clock offset {:.0} ± {:.0} µs · sessions {}",

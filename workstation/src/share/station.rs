@@ -153,6 +153,8 @@ pub struct Station {
     /// Its counts.
     pub stats: Arc<ShareStats>,
     stop: Arc<AtomicBool>,
+    /// Set by the thread as it ends.
+    ended: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -204,18 +206,22 @@ impl Station {
             t0: Instant::now(),
             unanswered: Vec::new(),
         };
+        let ended = Arc::new(AtomicBool::new(false));
+        let end = Arc::clone(&ended);
         let thread = std::thread::Builder::new()
             .name("share".into())
             .spawn(move || {
                 if let Err(e) = runtime.block_on(task.run(zenoh_config)) {
                     tracing::error!("shared scene stopped: {e:#}");
                 }
+                end.store(true, Ordering::Release);
             })
             .context("starting the share thread")?;
         Ok(Self {
             config,
             stats,
             stop,
+            ended,
             thread: Some(thread),
         })
     }
@@ -270,20 +276,35 @@ impl Station {
 
     /// Leave the scene.
     pub fn stop(mut self) -> ShareSummary {
-        self.stop.store(true, Ordering::Release);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
+        self.leave();
         self.summary()
+    }
+
+    /// Stop the thread: it ends within a telemetry tick once joined; while Zenoh is still
+    /// trying to reach a router that is not there, its session cannot be interrupted, and the
+    /// thread is left to end with the process.
+    fn leave(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        let t0 = Instant::now();
+        while !self.ended.load(Ordering::Acquire) && t0.elapsed() < Duration::from_secs(3) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        match self.thread.take() {
+            Some(t) if self.ended.load(Ordering::Acquire) => {
+                let _ = t.join();
+            }
+            Some(_) => tracing::warn!(
+                "left the shared scene without reaching its router at {}",
+                self.config.endpoint
+            ),
+            None => {}
+        }
     }
 }
 
 impl Drop for Station {
     fn drop(&mut self) {
-        self.stop.store(true, Ordering::Release);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
+        self.leave();
     }
 }
 
