@@ -253,10 +253,10 @@ pub fn run_with(args: &DemoArgs, hooks: DemoHooks) -> anyhow::Result<Summary> {
             );
             std::thread::sleep(Duration::from_millis(20));
         }
+        let joined = st.summary();
         say(format!(
             "demo: joined the shared scene `{}` (version {})",
-            st.summary().scene,
-            st.summary().version
+            joined.scene, joined.version
         ));
     }
     say(format!(

@@ -112,6 +112,14 @@ pub fn run(
         version: base,
         ..core.shared_points()
     };
+    // Hand a local commit to the shared scene, if one is joined.
+    let offer = |outbox: &Option<tokio::sync::mpsc::UnboundedSender<SharedPoints>>,
+                 core: &SimCore,
+                 base| {
+        if let Some(o) = outbox {
+            let _ = o.send(shared_points(core, base));
+        }
+    };
     let fail = |e: anyhow::Error, reports: &mpsc::Sender<SimReport>| {
         tracing::error!("simulation stopped: {e:#}");
         // Nothing to feel from a dead simulation: no field, no tool spring.
@@ -142,10 +150,8 @@ pub fn run(
                     let r = core.run_op(&op);
                     retired.samples = shared.samples.swap(core.samples().map(Arc::new));
                     shared.render.store(Some(Arc::new(core.render_snapshot())));
-                    if r.is_ok()
-                        && let Some(o) = &outbox
-                    {
-                        let _ = o.send(shared_points(&core, base));
+                    if r.is_ok() {
+                        offer(&outbox, &core, base);
                     }
                     let _ = reply.send(r);
                 }
@@ -159,10 +165,8 @@ pub fn run(
                     let r = core.csg_primitive(op, &shape, size, at);
                     retired.samples = shared.samples.swap(core.samples().map(Arc::new));
                     shared.render.store(Some(Arc::new(core.render_snapshot())));
-                    if r.is_ok()
-                        && let Some(o) = &outbox
-                    {
-                        let _ = o.send(shared_points(&core, base));
+                    if r.is_ok() {
+                        offer(&outbox, &core, base);
                     }
                     let _ = reply.send(r);
                 }
@@ -230,12 +234,11 @@ pub fn run(
             let _ = reports.send(SimReport::Stroke(s.clone()));
         }
         // A local commit that changed the shape or its colours goes to the shared scene.
-        if let Some(o) = &outbox
-            && core.strokes()[strokes..]
-                .iter()
-                .any(|s| s.tool != ToolKind::Touch)
+        if core.strokes()[strokes..]
+            .iter()
+            .any(|s| s.tool != ToolKind::Touch)
         {
-            let _ = o.send(shared_points(&core, base));
+            offer(&outbox, &core, base);
         }
         let now = Instant::now();
         if core.strokes().len() > strokes
