@@ -409,22 +409,50 @@ impl GlobalField {
     /// every point near them). A sampled surface passes all three: it lies within half a
     /// spacing of a sample and near its neighbours' planes. Allocation-free.
     pub fn is_trusted(&self, x: DVec3) -> bool {
-        self.is_trusted_over(x, &self.inner.grid)
+        self.trust_over(x, &self.inner.grid).0
     }
 
     /// [`GlobalField::is_trusted`] with the supports taken from a list gathered for a box
     /// ([`GlobalField::gather_supports`]): the same answer for every `x` in that box.
     pub fn is_trusted_near(&self, x: DVec3, supports: &SupportList) -> bool {
-        self.is_trusted_over(x, supports)
+        self.trust_over(x, supports).0
     }
 
-    fn is_trusted_over(&self, x: DVec3, supports: &impl Supports) -> bool {
+    /// Where `x` is trusted ([`GlobalField::is_trusted_near`]), the way the points vouching
+    /// for it face: their normals weighted by blending weight, Σ φᵢ nᵢ. Meshing keeps a piece
+    /// of zero set only where its outward direction agrees with that: a zero set facing
+    /// against its points is the back of a bump or dent one noisy point's fit makes (a point a
+    /// fraction of a spacing off its neighbours' surface, as scans have), a small inverted
+    /// piece a cell or so beside the surface.
+    pub fn trusted_facing_near(&self, x: DVec3, supports: &SupportList) -> Option<DVec3> {
+        let (trusted, facing) = self.trust_over(x, supports);
+        trusted.then_some(facing)
+    }
+
+    /// Whether a zero set whose outward direction is `outward` faces the way `facing` (from
+    /// [`GlobalField::trusted_facing_near`]) says its points do; always, with
+    /// [`FitParams::trust_facing`] off.
+    pub fn faces_its_points(&self, outward: DVec3, facing: DVec3) -> bool {
+        !self.inner.params.trust_facing
+            || outward.dot(facing) > FACING_LIMIT * outward.length() * facing.length()
+    }
+
+    /// [`GlobalField::trusted_facing_near`] with the supports from the index.
+    pub fn trusted_facing(&self, x: DVec3) -> Option<DVec3> {
+        let (trusted, facing) = self.trust_over(x, &self.inner.grid);
+        trusted.then_some(facing)
+    }
+
+    /// Whether `x` is trusted, and the vouching points' normals weighted by their blending
+    /// weights.
+    fn trust_over(&self, x: DVec3, supports: &impl Supports) -> (bool, DVec3) {
         if !x.is_finite() {
-            return false;
+            return (false, DVec3::ZERO);
         }
         let d = &*self.inner;
         let tau2 = d.params.trust * d.params.trust;
         let (mut weight_sum, mut vouching, mut off_plane) = (0.0, 0.0, 0.0);
+        let mut facing = DVec3::ZERO;
         supports.for_each_containing(x, |i, rel, dist2| {
             let r2 = d.support[i] * d.support[i];
             let phi = weight((dist2 / r2).sqrt()).0;
@@ -432,14 +460,16 @@ impl GlobalField {
             if dist2 <= tau2 * r2 {
                 // A point vouches for x; it disowns x lying far off its tangent plane.
                 vouching += phi + f64::MIN_POSITIVE;
+                facing += d.normals[i] * phi;
                 if rel.dot(d.normals[i]).abs() > d.params.trust_plane * d.support[i] {
                     off_plane += phi + f64::MIN_POSITIVE;
                 }
             }
         });
-        vouching > 0.0
+        let trusted = vouching > 0.0
             && weight_sum >= d.params.trust_weight
-            && off_plane < OFF_PLANE_SHARE * vouching
+            && off_plane < OFF_PLANE_SHARE * vouching;
+        (trusted, facing)
     }
 
     /// The value a sampled grid and an inside test should use: `f(x)` where it is trusted or
@@ -467,15 +497,15 @@ impl GlobalField {
         self.inner.grid.gather_box(lo, hi, &mut out.items);
     }
 
-    /// The trust radius of every inlier: (centre, `trust ×` support radius), for callers that
-    /// seed work near the trusted zero set (block-sparse meshing).
-    pub fn trusted_balls(&self) -> impl Iterator<Item = (DVec3, f64)> + '_ {
+    /// Every inlier's centre (and that of each field added since the fit), for callers that
+    /// seed work on the trusted zero set (meshing's walk).
+    pub fn centres(&self) -> impl Iterator<Item = DVec3> + '_ {
         let d = &*self.inner;
         d.nearest_ids
             .iter()
             .map(|&s| s as usize)
             .chain(d.fitted..d.frames.len())
-            .map(move |s| (d.frames[s].center, d.params.trust * d.support[s]))
+            .map(move |s| d.frames[s].center)
     }
 
     /// The support ball of every inlier: (centre, support radius), relocated fields
@@ -704,6 +734,10 @@ impl Supports for SupportList {
 
 /// The zero set is untrusted where points holding this share of the vouching weight disown it.
 const OFF_PLANE_SHARE: f64 = 0.75;
+
+/// Cosine of the largest angle between a meshed zero set's outward direction and the way its
+/// vouching points face ([`GlobalField::faces_its_points`]).
+const FACING_LIMIT: f64 = -0.5;
 
 /// Beyond this coordinate magnitude the nearest-point search runs from a point pulled in along
 /// the query's ray (squared distances overflow past ~1e154).

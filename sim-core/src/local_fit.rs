@@ -54,6 +54,15 @@ pub struct FitParams {
     /// it, the zero set is not trusted (fins beside a crease). Infinite: no such test.
     #[serde(default = "default_trust_plane")]
     pub trust_plane: f64,
+    /// Meshing keeps the zero set only where it faces the way the points vouching for it do
+    /// (see [`crate::field::GlobalField::trusted_facing_near`]): the backs of bumps and dents
+    /// single noisy points' fits make are left out. `false`: no such test.
+    #[serde(default = "default_trust_facing")]
+    pub trust_facing: bool,
+}
+
+fn default_trust_facing() -> bool {
+    true
 }
 
 fn default_trust() -> f64 {
@@ -82,6 +91,7 @@ impl Default for FitParams {
             trust: 0.7,
             trust_weight: 1.0,
             trust_plane: 0.3,
+            trust_facing: true,
         }
     }
 }

@@ -85,6 +85,10 @@ pub struct FitArgs {
     /// beside creases; inf turns the test off).
     #[arg(long, default_value_t = FitParams::default().trust_plane)]
     pub trust_plane: f64,
+    /// Mesh the zero set only where it faces the way its points do (`false`: also the backs
+    /// of the bumps single noisy points make, which show as small detached pieces).
+    #[arg(long, default_value_t = FitParams::default().trust_facing, action = clap::ArgAction::Set)]
+    pub trust_facing: bool,
     /// What to do with given normals: keep, reorient (fix flipped ones) or estimate (ignore).
     #[arg(long, value_enum, default_value_t = NormalsArg::Keep)]
     pub normals: NormalsArg,
@@ -199,6 +203,8 @@ pub struct MeshProfile {
     pub projections: usize,
     /// Newton steps those took.
     pub newton_steps: usize,
+    /// Projected vertices left out because the zero set there faces against its points.
+    pub inverted: usize,
 }
 
 /// The two-sided error, relative to the reference size (see
@@ -369,6 +375,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         trust: args.trust,
         trust_weight: args.trust_weight,
         trust_plane: args.trust_plane,
+        trust_facing: args.trust_facing,
         ..FitParams::default()
     };
     let policy = match args.normals {
@@ -433,6 +440,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             component_triangles: sizes.iter().copied().take(20).collect(),
             projections: stats.projections,
             newton_steps: stats.newton_steps,
+            inverted: stats.inverted,
         });
         mesh_triangles = Some(mesh.triangles.len());
         if let Some(out) = &args.mesh {
@@ -539,7 +547,7 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
         println!(
             "             walk {:.3} s wall over {} cells; processor s: gather {:.3}, sample \
              {:.3}, cells {:.3}, trust {:.3}, project {:.3} ({} projections, {:.2} Newton steps \
-             each); stitch {:.3} (wall)",
+             each, {} left out as facing against their points); stitch {:.3} (wall)",
             t.follow_s,
             p.cells_visited,
             t.gather_s,
@@ -549,6 +557,7 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
             t.project_s,
             p.projections,
             p.newton_steps as f64 / p.projections.max(1) as f64,
+            p.inverted,
             t.stitch_s,
         );
     }

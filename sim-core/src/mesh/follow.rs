@@ -5,8 +5,9 @@
 //! the crossed cells (2–3 per vertex on a smooth surface), where pruning a narrow band by a
 //! slope bound evaluated 10–15 per vertex.
 //!
-//! The walk stops at cells whose first vertex guess is not trusted
-//! ([`GlobalField::is_trusted`]), so it meshes the trusted zero set connected to the points:
+//! The walk stops at cells whose first vertex guess is not trusted, or where the zero set faces
+//! against the points vouching for it ([`GlobalField::is_trusted_facing_near`]: the back of a
+//! bump one noisy point's fit makes), so it meshes the trusted zero set connected to the points:
 //! a piece of zero set that no point's cell leads to (a fragment the points do not support) is
 //! never visited. A point whose cell the surface does not cross is projected onto the zero set
 //! once and the projection's cell tried instead.
@@ -32,10 +33,17 @@ pub(super) struct Followed {
     /// Node values of every block a visited cell's corner lies in (x fastest; NaN where not
     /// evaluated), ready for the per-block cell scan.
     pub values: HashMap<BlockKey, Vec<f64>>,
+    /// The cells the walk found crossed where the surface is trusted and faces its points,
+    /// per block: local cell index (`(k · BLOCK + j) · BLOCK + i`, ascending) and the vouching
+    /// points' facing there ([`GlobalField::trusted_facing_near`]). Meshing places vertices
+    /// only there, their trust already tested.
+    pub crossed: HashMap<BlockKey, Vec<(u32, DVec3)>>,
     /// Field evaluations made (one per node).
     pub evaluations: usize,
     /// Processor time of those evaluations, ns.
     pub eval_ns: u64,
+    /// Processor time of the trust tests of the visited cells' first guesses, ns.
+    pub trust_ns: u64,
     /// Cells visited.
     pub cells: usize,
 }
@@ -66,11 +74,12 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
     let mut values: HashMap<u64, f64, Fast> = HashMap::default();
     let mut lists: HashMap<BlockKey, SupportList> = HashMap::new();
     let mut visited: HashSet<u64, Fast> = HashSet::default();
-    let mut eval_ns = 0u64;
+    let (mut eval_ns, mut trust_ns) = (0u64, 0u64);
+    let mut crossed_cells: Vec<(Node, DVec3)> = Vec::new();
 
     // Round 0: the cells holding the points, each with the points in it (for the retry).
     let mut seeds: HashMap<Node, DVec3> = HashMap::new();
-    for (p, _) in field.trusted_balls() {
+    for p in field.centres() {
         if let Some(c) = cell_of(p) {
             seeds.entry(c).or_insert(p);
         }
@@ -122,29 +131,34 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
 
         // 2. Which frontier cells the surface crosses where it is trusted (in parallel: the
         //    trust test is the costly part).
-        let crossed: Vec<Option<[f64; 8]>> = frontier
+        let crossed: Vec<(Option<([f64; 8], DVec3)>, u64)> = frontier
             .par_iter()
             .map(|&c| {
                 let f = corners(c).map(|n| values[&key(n)]);
-                let guess = first_guess(&f)?;
+                let Some(guess) = first_guess(&f) else {
+                    return (None, 0);
+                };
+                let t = Instant::now();
                 let p = spec.node_position(c[0], c[1], c[2]) + guess * h;
                 // The guess lies in the cell, inside the box its first corner's block list
                 // was gathered for (the index answers if rounding put it a hair outside).
                 let b = home(c);
                 let (lo, hi) = block_box(spec, b);
-                let trusted = if p.cmpge(lo).all() && p.cmple(hi).all() {
-                    field.is_trusted_near(p, &lists[&b])
+                let facing = if p.cmpge(lo).all() && p.cmple(hi).all() {
+                    field.trusted_facing_near(p, &lists[&b])
                 } else {
-                    field.is_trusted(p)
+                    field.trusted_facing(p)
                 };
-                trusted.then_some(f)
+                let kept = facing.filter(|&n| field.faces_its_points(corner_gradient(&f), n));
+                (kept.map(|n| (f, n)), t.elapsed().as_nanos() as u64)
             })
             .collect();
+        trust_ns += crossed.iter().map(|c| c.1).sum::<u64>();
 
         // 3. Step across every face with a sign change among its corners.
         let mut next = Vec::new();
-        for (&c, f) in frontier.iter().zip(&crossed) {
-            let Some(f) = f else {
+        for (&c, (f, _)) in frontier.iter().zip(&crossed) {
+            let Some((f, facing)) = f else {
                 if retry_seeds && let Some(&p) = seeds.get(&c) {
                     // A point whose cell the surface misses: try where it projects.
                     let pr = field.project_to_zero_set(p);
@@ -157,6 +171,7 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
                 }
                 continue;
             };
+            crossed_cells.push((c, *facing));
             for axis in 0..3 {
                 for side in 0..2 {
                     let face = (0..8).filter(|k| (k >> axis) & 1 == side);
@@ -219,12 +234,34 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
             }
         }
     }
+    let mut crossed: HashMap<BlockKey, Vec<(u32, DVec3)>> = HashMap::new();
+    for (c, facing) in crossed_cells {
+        let b = c.map(|v| v / BLOCK);
+        let l = c.map(|v| v % BLOCK);
+        let local = ((l[2] * BLOCK + l[1]) * BLOCK + l[0]) as u32;
+        crossed.entry(b).or_default().push((local, facing));
+    }
+    for cells in crossed.values_mut() {
+        cells.sort_unstable_by_key(|c| c.0);
+    }
     Followed {
         values: blocks,
+        crossed,
         evaluations,
         eval_ns,
+        trust_ns,
         cells: visited.len(),
     }
+}
+
+/// The direction in which the corner values of a cell grow (their finite differences along
+/// each axis, summed over the cell's four edges on that axis).
+pub(super) fn corner_gradient(corner: &[f64; 8]) -> DVec3 {
+    let mut g = DVec3::ZERO;
+    for (a, b) in super::CUBE_EDGES {
+        g += (super::corner_offset(b) - super::corner_offset(a)) * (corner[b] - corner[a]);
+    }
+    g
 }
 
 /// The surface-nets first guess in a cell from its corner values (cell units, relative to

@@ -2,10 +2,11 @@
 //! cell crossed by the surface (the mean of its edge crossings, then Newton-projected onto the
 //! zero set), one quad per crossed grid edge, oriented so triangle normals point outward.
 //!
-//! Only the trusted zero set is meshed ([`GlobalField::is_trusted`]): a cell emits a vertex when
-//! its first guess lies within the trust radius of a point, so sheets and blobs where local fits
-//! extrapolate, and sign changes of the nearest-point fallback far from the surface, leave no
-//! geometry. [`extract_zero_set`] finds the cells by walking the trusted zero set from the
+//! Only the trusted zero set is meshed ([`GlobalField::is_trusted_facing_near`]): a cell emits a
+//! vertex when its first guess is trusted (near the points, covered, near their planes) and the
+//! zero set there faces the way those points do, so sheets and blobs where local fits
+//! extrapolate, inverted bumps of noisy points, and sign changes of the nearest-point fallback
+//! far from the surface, leave no geometry. [`extract_zero_set`] finds the cells by walking the trusted zero set from the
 //! points' cells (`follow.rs`): it evaluates about the corners of the crossed cells (cost ∝
 //! surface, not box) and meshes no piece that no point leads to.
 //! [`extract_zero_set_dense`] evaluates every node and scans every cell: on a surface the points
@@ -170,7 +171,7 @@ pub fn extract_zero_set_dense(
     resolution: usize,
 ) -> TriMesh {
     let spec = mesh_grid(bounds, resolution);
-    extract_blocks(field, &spec, &all_blocks(&spec), None).0
+    extract_blocks(field, &spec, &all_blocks(&spec), None, None).0
 }
 
 /// Block keys in [`all_blocks`]' order (z slowest), so a followed mesh numbers its vertices as
@@ -222,6 +223,9 @@ pub struct MeshStats {
     pub projections: usize,
     /// Newton steps those projections took in all.
     pub newton_steps: usize,
+    /// Projected vertices left out because the zero set where they landed faces against the
+    /// points vouching for it ([`FitParams::trust_facing`](crate::FitParams::trust_facing)).
+    pub inverted: usize,
     /// Where the time went.
     pub timings: MeshTimings,
 }
@@ -237,10 +241,17 @@ pub fn extract_zero_set_with_stats(
     let followed = follow::follow(field, &spec);
     let follow_s = started.elapsed().as_secs_f64();
     let blocks = in_grid_order(followed.values.keys().copied().collect());
-    let (mesh, mut stats) = extract_blocks(field, &spec, &blocks, Some(&followed.values));
+    let (mesh, mut stats) = extract_blocks(
+        field,
+        &spec,
+        &blocks,
+        Some(&followed.values),
+        Some(&followed.crossed),
+    );
     stats.evaluations = followed.evaluations;
     stats.cells_visited = followed.cells;
     stats.timings.sample_s = followed.eval_ns as f64 * 1e-9;
+    stats.timings.trust_s += followed.trust_ns as f64 * 1e-9;
     stats.timings.follow_s = follow_s;
     stats.timings.wall_s = started.elapsed().as_secs_f64();
     (mesh, stats)
@@ -257,17 +268,21 @@ struct MeshBlock {
     /// Projections and Newton steps made for it.
     projections: usize,
     newton_steps: usize,
+    /// Projected vertices left out as facing against their points.
+    inverted: usize,
     /// Processor time of its phases, ns: gather, sample, cells, trust, project.
     ns: [u64; 5],
 }
 
 /// Mesh `blocks`, with their node values `given` (NaN where not evaluated; from the walk) or
-/// else evaluated at every node.
+/// else evaluated at every node; with `crossed` (the walk's trusted crossed cells) vertices go
+/// only there, else in every cell with a sign change whose first guess is trusted.
 fn extract_blocks(
     field: &GlobalField,
     spec: &GridSpec,
     blocks: &[BlockKey],
     given: Option<&HashMap<BlockKey, Vec<f64>>>,
+    crossed: Option<&HashMap<BlockKey, Vec<(u32, DVec3)>>>,
 ) -> (TriMesh, MeshStats) {
     let started = Instant::now();
     let h = spec.spacing;
@@ -296,57 +311,78 @@ fn extract_blocks(
                 let mut vertices = Vec::new();
                 let (mut trust_ns, mut project_ns, mut projections, mut newton_steps) =
                     (0, 0, 0, 0);
-                for k in 0..count[2] - 1 {
-                    for j in 0..count[1] - 1 {
-                        for i in 0..count[0] - 1 {
-                            let mut corner = [0.0; 8];
-                            for (c, v) in corner.iter_mut().enumerate() {
-                                *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
-                            }
-                            if corner.iter().any(|f| f.is_nan()) {
-                                continue; // pruned: no sign change here
-                            }
-                            let Some(offset) = follow::first_guess(&corner) else {
-                                continue;
-                            };
-                            let guess =
-                                spec.node_position(first[0] + i, first[1] + j, first[2] + k)
-                                    + offset * h;
-                            let ta = Instant::now();
-                            // The cell and a cell around it: where the guess and, nearly always,
-                            // the projection's iterates lie (outside it they use the index).
-                            // Kept inside the block, the box `supports` was gathered for.
-                            let cell_lo =
-                                spec.node_position(first[0] + i, first[1] + j, first[2] + k);
-                            let reach = (
-                                (cell_lo - DVec3::splat(h)).max(block_box.0),
-                                (cell_lo + DVec3::splat(2.0 * h)).min(block_box.1),
-                            );
-                            supports.narrow_to(reach.0, reach.1, near_cell);
-                            let trusted =
-                                if guess.cmpge(reach.0).all() && guess.cmple(reach.1).all() {
-                                    field.is_trusted_near(guess, near_cell)
-                                } else {
-                                    field.is_trusted(guess)
-                                };
-                            let tb = Instant::now();
-                            trust_ns += nanos(tb - ta);
-                            if !trusted {
-                                continue;
-                            }
-                            let pr =
-                                project_to_zero_set_near(field, guess, &opts, near_cell, reach);
-                            project_ns += nanos(tb.elapsed());
-                            projections += 1;
-                            newton_steps += pr.iterations as usize;
-                            let ok =
-                                pr.converged && (pr.point - guess).length() < 2.0 * h && pr.trusted;
-                            let local = ((k * BLOCK + j) * BLOCK + i) as u32;
-                            vertices.push(if ok {
-                                (local, pr.point, pr.gradient)
+                let mut inverted = 0;
+                let mut place = |i: usize, j: usize, k: usize, known_facing: Option<DVec3>| {
+                    let mut corner = [0.0; 8];
+                    for (c, v) in corner.iter_mut().enumerate() {
+                        *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+                    }
+                    if corner.iter().any(|f| f.is_nan()) {
+                        return; // pruned: no sign change here
+                    }
+                    let Some(offset) = follow::first_guess(&corner) else {
+                        return;
+                    };
+                    let cell_lo = spec.node_position(first[0] + i, first[1] + j, first[2] + k);
+                    let guess = cell_lo + offset * h;
+                    let ta = Instant::now();
+                    // The cell and a cell around it: where the guess and, nearly always, the
+                    // projection's iterates lie (outside it they use the index). Kept inside
+                    // the block, the box `supports` was gathered for.
+                    let reach = (
+                        (cell_lo - DVec3::splat(h)).max(block_box.0),
+                        (cell_lo + DVec3::splat(2.0 * h)).min(block_box.1),
+                    );
+                    supports.narrow_to(reach.0, reach.1, near_cell);
+                    let facing = known_facing
+                        .or_else(|| {
+                            if guess.cmpge(reach.0).all() && guess.cmple(reach.1).all() {
+                                field.trusted_facing_near(guess, near_cell)
                             } else {
-                                (local, guess, field.value_and_gradient(guess).1)
-                            });
+                                field.trusted_facing(guess)
+                            }
+                        })
+                        .filter(|&n| field.faces_its_points(follow::corner_gradient(&corner), n));
+                    let tb = Instant::now();
+                    trust_ns += nanos(tb - ta);
+                    let Some(facing) = facing else {
+                        return;
+                    };
+                    let pr = project_to_zero_set_near(field, guess, &opts, near_cell, reach);
+                    project_ns += nanos(tb.elapsed());
+                    projections += 1;
+                    newton_steps += pr.iterations as usize;
+                    let ok = pr.converged && (pr.point - guess).length() < 2.0 * h && pr.trusted;
+                    let local = ((k * BLOCK + j) * BLOCK + i) as u32;
+                    let (p, gradient) = if ok {
+                        (pr.point, pr.gradient)
+                    } else {
+                        (guess, field.value_and_gradient(guess).1)
+                    };
+                    // Where the vertex lies, the zero set must face its points too: the corner
+                    // values of a cell a tiny inverted bubble crosses can still grow outward.
+                    if field.faces_its_points(gradient, facing) {
+                        vertices.push((local, p, gradient));
+                    } else {
+                        inverted += 1;
+                    }
+                };
+                match crossed {
+                    // The walk's cells, in the scan's order, their trust already tested.
+                    Some(crossed) => {
+                        for &(local, facing) in crossed.get(&key).map_or(&[][..], Vec::as_slice) {
+                            let l = local as usize;
+                            let (i, j, k) = (l % BLOCK, (l / BLOCK) % BLOCK, l / (BLOCK * BLOCK));
+                            place(i, j, k, Some(facing));
+                        }
+                    }
+                    None => {
+                        for k in 0..count[2] - 1 {
+                            for j in 0..count[1] - 1 {
+                                for i in 0..count[0] - 1 {
+                                    place(i, j, k, None);
+                                }
+                            }
                         }
                     }
                 }
@@ -358,6 +394,7 @@ fn extract_blocks(
                     evaluations,
                     projections,
                     newton_steps,
+                    inverted,
                     ns: [
                         nanos(t1 - t0),
                         nanos(t2 - t1),
@@ -378,6 +415,7 @@ fn extract_blocks(
         cells_visited: 0,
         projections: evaluated.iter().map(|b| b.projections).sum(),
         newton_steps: evaluated.iter().map(|b| b.newton_steps).sum(),
+        inverted: evaluated.iter().map(|b| b.inverted).sum(),
         timings: MeshTimings::default(),
     };
     let phase_s = |i: usize| evaluated.iter().map(|b| b.ns[i]).sum::<u64>() as f64 * 1e-9;
