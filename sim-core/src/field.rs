@@ -443,6 +443,27 @@ impl GlobalField {
         trusted.then_some(facing)
     }
 
+    /// Visit every local field whose support contains `x`, with the supports from a list
+    /// gathered for a box holding `x`: its point, unit normal, blending weight at `x` and
+    /// support radius.
+    pub fn for_each_support_near(
+        &self,
+        x: DVec3,
+        supports: &SupportList,
+        mut visit: impl FnMut(DVec3, DVec3, f64, f64),
+    ) {
+        let d = &*self.inner;
+        supports.for_each_containing(x, |i, _, dist2| {
+            let r = d.support[i];
+            visit(
+                d.frames[i].center,
+                d.normals[i],
+                weight(dist2.sqrt() / r).0,
+                r,
+            );
+        });
+    }
+
     /// Whether `x` is trusted, and the vouching points' normals weighted by their blending
     /// weights.
     fn trust_over(&self, x: DVec3, supports: &impl Supports) -> (bool, DVec3) {

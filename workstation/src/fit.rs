@@ -24,7 +24,7 @@ use sim_core::accuracy::{
     Distances, MeshReference, Reference, TwoSidedError, mesh_error, zero_set_error,
 };
 use sim_core::io::{self, Format, Loaded};
-use sim_core::mesh::{TriMesh, extract_zero_set_with_stats};
+use sim_core::mesh::{MeshOptions, TriMesh, extract_zero_set_with};
 use sim_core::reconstruct::{NormalPolicy, Stage, StageObserver, reconstruct};
 use sim_core::sampling::Noise;
 use sim_core::{FitParams, PointSet, Progress};
@@ -89,6 +89,15 @@ pub struct FitArgs {
     /// of the bumps single noisy points make, which show as small detached pieces).
     #[arg(long, default_value_t = FitParams::default().trust_facing, action = clap::ArgAction::Set)]
     pub trust_facing: bool,
+    /// Sharp creases (CAD data): move mesh vertices near a crease of two faces onto the faces'
+    /// planes and the crease line where a wedge of two planes explains the points there. It
+    /// also sharpens a rounding smaller than the point spacing, so it is off by default.
+    #[arg(long)]
+    pub creases: bool,
+    /// Leave mesh vertices at the mean of their cell's edge crossings (plain surface nets)
+    /// instead of projecting them onto the zero set: to measure what the projection gains.
+    #[arg(long)]
+    pub unprojected_vertices: bool,
     /// What to do with given normals: keep, reorient (fix flipped ones) or estimate (ignore).
     #[arg(long, value_enum, default_value_t = NormalsArg::Keep)]
     pub normals: NormalsArg,
@@ -205,6 +214,8 @@ pub struct MeshProfile {
     pub newton_steps: usize,
     /// Projected vertices left out because the zero set there faces against its points.
     pub inverted: usize,
+    /// Vertices moved onto the wedge of a crease's two faces.
+    pub sharpened: usize,
 }
 
 /// The two-sided error, relative to the reference size (see
@@ -429,7 +440,11 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         let cells = args.resolution.clamp(8, 1024) as f64;
         let padded = ((hi - lo + 2.0 * pad).max_element() / (hi - lo).max_element() * cells).ceil();
         let box_ = (lo - pad, hi + pad);
-        let (mesh, stats) = extract_zero_set_with_stats(&rec.field, box_, padded as usize);
+        let options = MeshOptions {
+            creases: args.creases,
+            unprojected: args.unprojected_vertices,
+        };
+        let (mesh, stats) = extract_zero_set_with(&rec.field, box_, padded as usize, &options);
         mesh_s = Some(t2.elapsed().as_secs_f64());
         mesh_evaluations = Some([stats.evaluations, stats.box_nodes]);
         let (_, sizes) = mesh.components();
@@ -441,6 +456,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             projections: stats.projections,
             newton_steps: stats.newton_steps,
             inverted: stats.inverted,
+            sharpened: stats.sharpened,
         });
         mesh_triangles = Some(mesh.triangles.len());
         if let Some(out) = &args.mesh {
@@ -547,7 +563,8 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
         println!(
             "             walk {:.3} s wall over {} cells; processor s: gather {:.3}, sample \
              {:.3}, cells {:.3}, trust {:.3}, project {:.3} ({} projections, {:.2} Newton steps \
-             each, {} left out as facing against their points); stitch {:.3} (wall)",
+             each, {} left out as facing against their points, {} moved onto creases); stitch \
+             {:.3} (wall)",
             t.follow_s,
             p.cells_visited,
             t.gather_s,
@@ -558,6 +575,7 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
             p.projections,
             p.newton_steps as f64 / p.projections.max(1) as f64,
             p.inverted,
+            p.sharpened,
             t.stitch_s,
         );
     }

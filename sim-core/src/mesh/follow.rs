@@ -50,6 +50,9 @@ pub(super) struct Followed {
 
 type Node = [usize; 3];
 
+/// A crossed cell the walk keeps: its corner values and its points' facing.
+type Kept = ([f64; 8], DVec3);
+
 /// Hash maps keyed by grid coordinates packed into one integer (a multiplicative hash).
 type Fast = BuildHasherDefault<MulHasher>;
 
@@ -131,7 +134,8 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
 
         // 2. Which frontier cells the surface crosses where it is trusted (in parallel: the
         //    trust test is the costly part).
-        let crossed: Vec<(Option<([f64; 8], DVec3)>, u64)> = frontier
+        // Per frontier cell: its corner values and the points' facing if kept; trust's ns.
+        let crossed: Vec<(Option<Kept>, u64)> = frontier
             .par_iter()
             .map(|&c| {
                 let f = corners(c).map(|n| values[&key(n)]);

@@ -2,18 +2,21 @@
 //! cell crossed by the surface (the mean of its edge crossings, then Newton-projected onto the
 //! zero set), one quad per crossed grid edge, oriented so triangle normals point outward.
 //!
-//! Only the trusted zero set is meshed ([`GlobalField::is_trusted_facing_near`]): a cell emits a
+//! Only the trusted zero set is meshed ([`GlobalField::trusted_facing_near`]): a cell emits a
 //! vertex when its first guess is trusted (near the points, covered, near their planes) and the
 //! zero set there faces the way those points do, so sheets and blobs where local fits
 //! extrapolate, inverted bumps of noisy points, and sign changes of the nearest-point fallback
-//! far from the surface, leave no geometry. [`extract_zero_set`] finds the cells by walking the trusted zero set from the
-//! points' cells (`follow.rs`): it evaluates about the corners of the crossed cells (cost ∝
-//! surface, not box) and meshes no piece that no point leads to.
+//! far from the surface, leave no geometry. [`extract_zero_set`] finds the cells by walking the
+//! trusted zero set from the points' cells (`follow.rs`): it evaluates about the corners of the
+//! crossed cells (cost ∝ surface, not box) and meshes no piece that no point leads to.
+//! [`MeshOptions`] can leave vertices at the edge crossings' mean (to measure what projecting
+//! them gains) and move vertices near sharp creases onto the faces' wedge (`features.rs`).
 //! [`extract_zero_set_dense`] evaluates every node and scans every cell: on a surface the points
 //! support everywhere it gives the same mesh, bit for bit.
 //!
 //! Contract: vertices are finite; deterministic for a field and grid.
 
+mod features;
 mod follow;
 
 use std::collections::HashMap;
@@ -171,7 +174,8 @@ pub fn extract_zero_set_dense(
     resolution: usize,
 ) -> TriMesh {
     let spec = mesh_grid(bounds, resolution);
-    extract_blocks(field, &spec, &all_blocks(&spec), None, None).0
+    let options = MeshOptions::default();
+    extract_blocks(field, &spec, &all_blocks(&spec), None, None, &options).0
 }
 
 /// Block keys in [`all_blocks`]' order (z slowest), so a followed mesh numbers its vertices as
@@ -226,8 +230,22 @@ pub struct MeshStats {
     /// Projected vertices left out because the zero set where they landed faces against the
     /// points vouching for it ([`FitParams::trust_facing`](crate::FitParams::trust_facing)).
     pub inverted: usize,
+    /// Vertices moved from the blend's rounded crease onto the wedge of its faces' planes.
+    pub sharpened: usize,
     /// Where the time went.
     pub timings: MeshTimings,
+}
+
+/// Choices for [`extract_zero_set_with`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MeshOptions {
+    /// Move vertices near a sharp crease of two faces onto the faces' planes and the crease
+    /// line, where the points there are explained by such a wedge (`features.rs`; for CAD
+    /// data: it sharpens a rounding smaller than the sampling spacing too).
+    pub creases: bool,
+    /// Leave each vertex at the mean of its cell's edge crossings, as plain surface nets does,
+    /// instead of projecting it onto the zero set (to measure what the projection gains).
+    pub unprojected: bool,
 }
 
 /// [`extract_zero_set`], also saying what it evaluated.
@@ -235,6 +253,16 @@ pub fn extract_zero_set_with_stats(
     field: &GlobalField,
     bounds: (DVec3, DVec3),
     resolution: usize,
+) -> (TriMesh, MeshStats) {
+    extract_zero_set_with(field, bounds, resolution, &MeshOptions::default())
+}
+
+/// [`extract_zero_set_with_stats`] with `options`.
+pub fn extract_zero_set_with(
+    field: &GlobalField,
+    bounds: (DVec3, DVec3),
+    resolution: usize,
+    options: &MeshOptions,
 ) -> (TriMesh, MeshStats) {
     let started = Instant::now();
     let spec = mesh_grid(bounds, resolution);
@@ -247,6 +275,7 @@ pub fn extract_zero_set_with_stats(
         &blocks,
         Some(&followed.values),
         Some(&followed.crossed),
+        options,
     );
     stats.evaluations = followed.evaluations;
     stats.cells_visited = followed.cells;
@@ -270,6 +299,8 @@ struct MeshBlock {
     newton_steps: usize,
     /// Projected vertices left out as facing against their points.
     inverted: usize,
+    /// Vertices moved onto a crease's wedge: local cell, where they were and their gradient.
+    sharpened: Vec<(u32, DVec3, DVec3)>,
     /// Processor time of its phases, ns: gather, sample, cells, trust, project.
     ns: [u64; 5],
 }
@@ -283,6 +314,7 @@ fn extract_blocks(
     blocks: &[BlockKey],
     given: Option<&HashMap<BlockKey, Vec<f64>>>,
     crossed: Option<&HashMap<BlockKey, Vec<(u32, DVec3)>>>,
+    options: &MeshOptions,
 ) -> (TriMesh, MeshStats) {
     let started = Instant::now();
     let h = spec.spacing;
@@ -312,6 +344,8 @@ fn extract_blocks(
                 let (mut trust_ns, mut project_ns, mut projections, mut newton_steps) =
                     (0, 0, 0, 0);
                 let mut inverted = 0;
+                let mut sharpened = Vec::new();
+                let creases = options.creases;
                 let mut place = |i: usize, j: usize, k: usize, known_facing: Option<DVec3>| {
                     let mut corner = [0.0; 8];
                     for (c, v) in corner.iter_mut().enumerate() {
@@ -348,17 +382,32 @@ fn extract_blocks(
                     let Some(facing) = facing else {
                         return;
                     };
-                    let pr = project_to_zero_set_near(field, guess, &opts, near_cell, reach);
-                    project_ns += nanos(tb.elapsed());
-                    projections += 1;
-                    newton_steps += pr.iterations as usize;
-                    let ok = pr.converged && (pr.point - guess).length() < 2.0 * h && pr.trusted;
                     let local = ((k * BLOCK + j) * BLOCK + i) as u32;
-                    let (p, gradient) = if ok {
-                        (pr.point, pr.gradient)
-                    } else {
-                        (guess, field.value_and_gradient(guess).1)
+                    let projected = (!options.unprojected).then(|| {
+                        let pr = project_to_zero_set_near(field, guess, &opts, near_cell, reach);
+                        project_ns += nanos(tb.elapsed());
+                        projections += 1;
+                        newton_steps += pr.iterations as usize;
+                        pr
+                    });
+                    let (mut p, mut gradient) = match projected {
+                        Some(pr)
+                            if pr.converged
+                                && (pr.point - guess).length() < 2.0 * h
+                                && pr.trusted =>
+                        {
+                            (pr.point, pr.gradient)
+                        }
+                        _ => (guess, field.value_and_gradient(guess).1),
                     };
+                    if creases && p.cmpge(reach.0).all() && p.cmple(reach.1).all() {
+                        let box_ = (cell_lo, cell_lo + DVec3::splat(h));
+                        if let Some((x, n)) = features::sharpen(field, p, gradient, box_, near_cell)
+                        {
+                            sharpened.push((local, p, gradient));
+                            (p, gradient) = (x, n * gradient.length());
+                        }
+                    }
                     // Where the vertex lies, the zero set must face its points too: the corner
                     // values of a cell a tiny inverted bubble crosses can still grow outward.
                     if field.faces_its_points(gradient, facing) {
@@ -395,6 +444,7 @@ fn extract_blocks(
                     projections,
                     newton_steps,
                     inverted,
+                    sharpened,
                     ns: [
                         nanos(t1 - t0),
                         nanos(t2 - t1),
@@ -416,6 +466,7 @@ fn extract_blocks(
         projections: evaluated.iter().map(|b| b.projections).sum(),
         newton_steps: evaluated.iter().map(|b| b.newton_steps).sum(),
         inverted: evaluated.iter().map(|b| b.inverted).sum(),
+        sharpened: 0,
         timings: MeshTimings::default(),
     };
     let phase_s = |i: usize| evaluated.iter().map(|b| b.ns[i]).sum::<u64>() as f64 * 1e-9;
@@ -429,6 +480,8 @@ fn extract_blocks(
     let mut slot: HashMap<usize, usize> = HashMap::with_capacity(evaluated.len());
     // Vertex ids per block and local cell (u32::MAX: no vertex).
     let mut ids: Vec<Vec<u32>> = Vec::with_capacity(evaluated.len());
+    // Sharpened vertices: id, and where they were before with their normal.
+    let mut sharpened = Vec::new();
     for (s, b) in evaluated.iter().enumerate() {
         slot.insert(block_key(b.key), s);
         let mut cell_ids = vec![u32::MAX; BLOCK * BLOCK * BLOCK];
@@ -437,6 +490,12 @@ fn extract_blocks(
             mesh.vertices.push(p);
             mesh.normals
                 .push(gradient.try_normalize().unwrap_or(DVec3::Z));
+        }
+        for &(local, p, gradient) in &b.sharpened {
+            if cell_ids[local as usize] != u32::MAX {
+                let n = gradient.try_normalize().unwrap_or(DVec3::Z);
+                sharpened.push((cell_ids[local as usize], p, n));
+            }
         }
         ids.push(cell_ids);
     }
@@ -497,6 +556,7 @@ fn extract_blocks(
             }
         }
     }
+    stats.sharpened = sharpened.len() - features::unfold(&mut mesh, &sharpened);
     stats.timings.stitch_s = stitch_started.elapsed().as_secs_f64();
     stats.timings.wall_s = started.elapsed().as_secs_f64();
     (mesh, stats)

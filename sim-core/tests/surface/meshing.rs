@@ -51,3 +51,66 @@ fn sphere_mesh_is_closed_outward_and_on_the_surface() {
             .all(|(n, v)| n.dot(*v) > 0.99)
     );
 }
+
+/// A sharp box (edges rounded by 1e-3 of its size, far under the 8 mm spacing): the blend
+/// rounds its edges over about a support radius; with `MeshOptions::creases` the vertices
+/// there move onto the faces' planes and the edge lines. Measured (20k points, resolution
+/// 150, relative to the diagonal): RMS 3.1e-4 → 2.6e-4, p99 1.30e-3 → 0.87e-3, coverage RMS
+/// 2.85e-4 → 1.96e-4; the max grows (1.0e-2 → 1.2e-2) at the corners, where three faces meet
+/// and a two-plane wedge is not the shape. A smooth torus is left alone. Plain surface nets
+/// (vertices at their edge crossings' mean) is farther from the torus than vertices projected
+/// onto the zero set: RMS 1.76e-4 against 6.6e-5 at resolution 100.
+#[test]
+fn creases_sharpen_a_box_and_leave_a_torus_alone_and_projection_brings_vertices_to_the_surface() {
+    use sim_core::accuracy::mesh_error;
+    use sim_core::mesh::{MeshOptions, extract_zero_set_with};
+    let mesh_with = |shape: &Shape, n: usize, res: usize, options: MeshOptions| {
+        let points = shape.sample(n, 4);
+        let rec = fit(&points, &FitParams::default(), NormalPolicy::Keep);
+        let (lo, hi) = shape.bounds();
+        let pad = (hi - lo) * 0.1;
+        let (mesh, stats) = extract_zero_set_with(&rec.field, (lo - pad, hi + pad), res, &options);
+        let e = mesh_error(&mesh, shape, 100_000, 5).unwrap();
+        let (to_ref, cover) = e.relative();
+        eprintln!(
+            "{shape:?} {options:?}: {to_ref:?} coverage {cover:?}, {} sharpened",
+            stats.sharpened
+        );
+        (to_ref, cover, stats.sharpened)
+    };
+    let sharp = Shape::RoundedBox {
+        half: DVec3::new(0.5, 0.4, 0.3),
+        radius: 0.001,
+    };
+    let creases = MeshOptions {
+        creases: true,
+        ..MeshOptions::default()
+    };
+    let (plain, plain_cover, none) = mesh_with(&sharp, 20_000, 150, MeshOptions::default());
+    let (sharpened, sharpened_cover, moved) = mesh_with(&sharp, 20_000, 150, creases);
+    assert_eq!(none, 0);
+    assert!(moved > 1000, "{moved}");
+    assert!(
+        sharpened.rms < 0.9 * plain.rms,
+        "{sharpened:?} vs {plain:?}"
+    );
+    assert!(
+        sharpened.p99 < 0.8 * plain.p99,
+        "{sharpened:?} vs {plain:?}"
+    );
+    assert!(sharpened_cover.rms < 0.8 * plain_cover.rms);
+
+    let torus = Shape::Torus {
+        major: 1.0,
+        minor: 0.3,
+    };
+    let (projected, _, _) = mesh_with(&torus, 10_000, 100, MeshOptions::default());
+    let (torus_creased, _, moved) = mesh_with(&torus, 10_000, 100, creases);
+    assert_eq!((moved, torus_creased), (0, projected));
+    let unprojected = MeshOptions {
+        unprojected: true,
+        ..MeshOptions::default()
+    };
+    let (mean, _, _) = mesh_with(&torus, 10_000, 100, unprojected);
+    assert!(projected.rms < 0.5 * mean.rms, "{projected:?} vs {mean:?}");
+}
