@@ -4,14 +4,19 @@
 //! groups' planes (their intersection at a convex crease, their union at a concave one)
 //! explains every point to within [`WEDGE_FIT`] of their support radius, the vertex moves to
 //! the wedge's nearest point: on a face it lands on the face's plane, across the crease on the
-//! crease line, as dual contouring places vertices from the planes of a cell's crossings.
+//! crease line, as dual contouring places vertices from the planes of a cell's crossings. It
+//! moves only part way where the wedge fits the points less well (beyond half the tolerance)
+//! or lies farther than half its reach, so neighbouring vertices that judge a crease a little
+//! differently do not leave a step between them.
 //!
 //! A rounded edge is left as the blend makes it: its points lie on the arc, inside the
-//! wedge, and the wedge does not explain them. So is a corner of three faces (two planes do
-//! not explain its points either).
+//! wedge, and the wedge does not explain them. So is a corner of three faces and the top of a
+//! thin blade: some normal there lies off the great circle through the two faces' normals.
+//! Where vertices sit on a crease line, the mesher's choice of each quad's diagonal (the one
+//! whose triangles face like their corners) keeps the crease from being cut across.
 //!
 //! Contract: allocation-free (at most [`MAX_NEIGHBOURS`] points are considered); a vertex
-//! moves by at most the `reach` its caller gives; `None` leaves it where it was.
+//! moves by less than the `reach` its caller gives; `None` leaves it where it was.
 
 use glam::DVec3;
 
@@ -24,6 +29,14 @@ pub(crate) const MAX_NEIGHBOURS: usize = 64;
 /// Two normal groups whose closest members are farther apart than this cosine (35°) make a
 /// crease candidate.
 const CREASE_ANGLE_COS: f64 = 0.82;
+
+/// Faces whose normals are more than this far apart (cosine; 150°) are the two sides of a
+/// thin part, not a crease.
+const OPPOSED_COS: f64 = -0.87;
+
+/// A normal off the great circle through the two faces' normals by more than this (sine,
+/// 15°) belongs to a third face.
+const ARC_SIN: f64 = 0.26;
 
 /// Points whose blending weight at the vertex is below this hardly shape the blend there and
 /// are left out (they may lie on a third face beyond the crease).
@@ -143,8 +156,8 @@ pub(crate) fn unfold(mesh: &mut TriMesh, sharpened: &[(u32, DVec3, DVec3)]) -> u
 /// normal `normal`, belongs on a crease, and the normal there: if the points facing the same
 /// side (normals within 90° of `normal`; the far side of a thin part is the blend's own
 /// business) make a crease the wedge explains, on the crease line where that crosses the cell
-/// (its point nearest `p`), else the wedge's nearest point to `p`; if that lies within `reach`
-/// of `p`.
+/// (its point nearest `p`), else the wedge's nearest point to `p`; within `reach` of `p`, and
+/// part way by how well the wedge fits and how far it is (see the module doc).
 pub(crate) fn wedge_point(
     p: DVec3,
     normal: DVec3,
@@ -206,7 +219,13 @@ pub(crate) fn wedge_point(
         }
         (na, nb) = (planes[0].n, planes[1].n);
     }
-    if na.dot(nb) > CREASE_ANGLE_COS {
+    if na.dot(nb) > CREASE_ANGLE_COS || na.dot(nb) < OPPOSED_COS {
+        return None;
+    }
+    // Every normal lies on the arc between the two faces': a third face (a corner, the far
+    // side of a thin blade) is not a wedge of two.
+    let across = na.cross(nb).normalize();
+    if points.iter().any(|q| q.normal.dot(across).abs() > ARC_SIN) {
         return None;
     }
     // Convex when each group's points lie behind the other's plane.
@@ -230,10 +249,25 @@ pub(crate) fn wedge_point(
         if convex { da.max(db) } else { da.min(db) }
     };
     let mean_radius = points.iter().map(|q| q.radius).sum::<f64>() / points.len() as f64;
-    let tolerance = WEDGE_FIT * mean_radius;
-    if points.iter().any(|q| wedge(q.centre).abs() > tolerance) {
+    // How well the wedge explains the points: fully within WEDGE_FIT/2 of a support radius,
+    // not at all beyond WEDGE_FIT, linearly between (so neighbouring vertices that judge a
+    // crease a little differently move a little differently, not all or nothing).
+    let worst = points
+        .iter()
+        .map(|q| wedge(q.centre).abs())
+        .fold(0.0, f64::max)
+        / (WEDGE_FIT * mean_radius);
+    let fit = (2.0 - 2.0 * worst).clamp(0.0, 1.0);
+    if fit <= 0.0 {
         return None;
     }
+    // Moved part way by how well the wedge fits and how far it is (fully within half the reach).
+    let partly = |x: DVec3, n: DVec3| {
+        let far = (x - p).length() / reach;
+        let w = fit * (2.0 - 2.0 * far).clamp(0.0, 1.0);
+        let turned = (normal.normalize_or_zero() * (1.0 - w) + n * w).normalize_or(n);
+        (w > 0.0).then(|| (p + (x - p) * w, turned))
+    };
     let direction = na.cross(nb);
     let denominator = direction.length_squared();
     if denominator > 1e-12 {
@@ -255,7 +289,7 @@ pub(crate) fn wedge_point(
         if t0 <= t1 {
             let t = ((p - on_line).dot(direction) / denominator).clamp(t0, t1);
             let x = on_line + direction * t;
-            return ((x - p).length() <= reach).then(|| (x, (na + nb).normalize()));
+            return partly(x, (na + nb).normalize());
         }
     }
     // The wedge's nearest point: on a plane where the other does not cut it off.
@@ -270,7 +304,7 @@ pub(crate) fn wedge_point(
     for plane in planes {
         consider(p - plane.n * plane.distance(p), plane.n);
     }
-    best.filter(|(x, _)| (*x - p).length() <= reach)
+    best.and_then(|(x, n)| partly(x, n))
 }
 
 #[cfg(test)]
@@ -353,6 +387,42 @@ mod tests {
             )
             .is_none()
         );
+    }
+
+    #[test]
+    fn a_corner_of_three_faces_is_left_to_the_blend() {
+        // A cube's corner at the origin: faces x = 0, y = 0 and z = 0 (the solid below each).
+        let mut points = Vec::new();
+        for i in 0..4 {
+            for j in 0..4 {
+                let (s, t) = (-(i as f64) * 0.1, -(j as f64) * 0.1);
+                for (centre, normal) in [
+                    (DVec3::new(0.0, s, t), DVec3::X),
+                    (DVec3::new(s, 0.0, t), DVec3::Y),
+                    (DVec3::new(s, t, 0.0), DVec3::Z),
+                ] {
+                    points.push(Neighbour {
+                        centre,
+                        normal,
+                        weight: 1.0,
+                        radius: 0.3,
+                    });
+                }
+            }
+        }
+        let p = DVec3::splat(-0.02);
+        let cell = (DVec3::splat(-0.04), DVec3::splat(0.01));
+        assert!(wedge_point(p, DVec3::ONE, cell, &points, 0.1).is_none());
+        // Two of its faces alone are a crease.
+        let two: Vec<Neighbour> = points
+            .iter()
+            .copied()
+            .filter(|q| q.normal != DVec3::Y)
+            .collect();
+        let (q, n) = (p.with_y(-0.2), DVec3::new(1.0, 0.0, 1.0));
+        let cell = (q - 0.02, q + 0.03);
+        let (x, _) = wedge_point(q, n, cell, &two, 0.1).unwrap();
+        assert!((x - DVec3::new(0.0, -0.2, 0.0)).length() < 1e-12, "{x}");
     }
 
     #[test]

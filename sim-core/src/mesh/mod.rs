@@ -545,11 +545,19 @@ fn extract_blocks(
                             continue;
                         }
                         // Inside → outside along +axis: the quad's normal (+axis) is outward.
-                        let tris = if f0 < 0.0 {
+                        let mut tris = if f0 < 0.0 {
                             [[v[0], v[1], v[2]], [v[0], v[2], v[3]]]
                         } else {
                             [[v[0], v[2], v[1]], [v[0], v[3], v[2]]]
                         };
+                        let q = if f0 < 0.0 {
+                            v
+                        } else {
+                            [v[0], v[3], v[2], v[1]]
+                        };
+                        if options.creases && !split_along_02(&mesh, q) {
+                            tris = [[q[1], q[2], q[3]], [q[1], q[3], q[0]]];
+                        }
                         mesh.triangles.extend(tris);
                     }
                 }
@@ -560,6 +568,26 @@ fn extract_blocks(
     stats.timings.stitch_s = stitch_started.elapsed().as_secs_f64();
     stats.timings.wall_s = started.elapsed().as_secs_f64();
     (mesh, stats)
+}
+
+/// Whether the quad `v` (counter-clockwise from outside) is better split along its diagonal
+/// 0–2 than 1–3: the split whose worse triangle agrees more with its corners' normals (the
+/// zero set's gradients). Used with [`MeshOptions::creases`]: where vertices sit on a crease
+/// line, the other diagonal would cut across it. (Always on, it helps smooth shapes, the torus
+/// at resolution 200 RMS 1.05e-5 → 8.6e-6, and costs creased ones their max, the CSG crease
+/// 5.3e-3 → 6.2e-3, so the default keeps the fixed split.)
+fn split_along_02(mesh: &TriMesh, v: [u32; 4]) -> bool {
+    let agreement = |t: [u32; 3]| {
+        let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+        let n = t.iter().map(|&i| mesh.normals[i as usize]).sum::<DVec3>();
+        (b - a)
+            .cross(c - a)
+            .normalize_or_zero()
+            .dot(n.normalize_or_zero())
+    };
+    let along_02 = agreement([v[0], v[1], v[2]]).min(agreement([v[0], v[2], v[3]]));
+    let along_13 = agreement([v[1], v[2], v[3]]).min(agreement([v[1], v[3], v[0]]));
+    along_02 >= along_13
 }
 
 fn nanos(d: std::time::Duration) -> u64 {

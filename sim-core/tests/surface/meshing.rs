@@ -55,9 +55,9 @@ fn sphere_mesh_is_closed_outward_and_on_the_surface() {
 /// A sharp box (edges rounded by 1e-3 of its size, far under the 8 mm spacing): the blend
 /// rounds its edges over about a support radius; with `MeshOptions::creases` the vertices
 /// there move onto the faces' planes and the edge lines. Measured (20k points, resolution
-/// 150, relative to the diagonal): RMS 3.1e-4 → 2.6e-4, p99 1.30e-3 → 0.87e-3, coverage RMS
-/// 2.85e-4 → 1.96e-4; the max grows (1.0e-2 → 1.2e-2) at the corners, where three faces meet
-/// and a two-plane wedge is not the shape. A smooth torus is left alone. Plain surface nets
+/// 150, relative to the diagonal): RMS 3.1e-4 → 2.5e-4, p99 1.30e-3 → 0.86e-3, coverage RMS
+/// 2.85e-4 → 1.93e-4; the max grows (1.0e-2 → 1.1e-2) near the corners, where three faces
+/// meet and the blend's rounding is kept. A smooth torus is left alone. Plain surface nets
 /// (vertices at their edge crossings' mean) is farther from the torus than vertices projected
 /// onto the zero set: RMS 1.76e-4 against 6.6e-5 at resolution 100.
 #[test]
@@ -106,7 +106,9 @@ fn creases_sharpen_a_box_and_leave_a_torus_alone_and_projection_brings_vertices_
     };
     let (projected, _, _) = mesh_with(&torus, 10_000, 100, MeshOptions::default());
     let (torus_creased, _, moved) = mesh_with(&torus, 10_000, 100, creases);
-    assert_eq!((moved, torus_creased), (0, projected));
+    // Nothing moves; only the quads' diagonals may be chosen otherwise, which helps here.
+    assert_eq!(moved, 0);
+    assert!(torus_creased.rms <= projected.rms && torus_creased.max <= projected.max);
     let unprojected = MeshOptions {
         unprojected: true,
         ..MeshOptions::default()
