@@ -6,7 +6,7 @@
 //! slope bound evaluated 10–15 per vertex.
 //!
 //! The walk stops at cells whose first vertex guess is not trusted, or where the zero set faces
-//! against the points vouching for it ([`GlobalField::is_trusted_facing_near`]: the back of a
+//! against the points vouching for it ([`GlobalField::trusted_facing_near`]: the back of a
 //! bump one noisy point's fit makes), so it meshes the trusted zero set connected to the points:
 //! a piece of zero set that no point's cell leads to (a fragment the points do not support) is
 //! never visited. A point whose cell the surface does not cross is projected onto the zero set
