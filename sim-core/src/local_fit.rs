@@ -230,24 +230,27 @@ pub fn fit_local(
             row.2 = target * inv_edge - (w - 0.5);
             row.3 = theta;
         }
-        for (vals, idx, res, theta) in &rows {
-            if size == 3 {
-                // Dense case (the common one): fixed-size rows, so the update vectorises.
-                for (a, row) in dense.iter_mut().enumerate() {
-                    let wa = theta * vals[a];
-                    rhs27[a] += wa * res;
-                    for b in a..27 {
-                        row[b] += wa * vals[b];
-                    }
+        if size == 3 {
+            // Dense case (the common one): the neighbour's three rows in one pass over the
+            // upper triangle (a rank-3 update: each element loaded and stored once, not three
+            // times; fixed-size rows, so it vectorises).
+            let [(v0, _, r0, t0), (v1, _, r1, t1), (v2, _, r2, t2)] = &rows;
+            for (a, row) in dense.iter_mut().enumerate() {
+                let (w0, w1, w2) = (t0 * v0[a], t1 * v1[a], t2 * v2[a]);
+                rhs27[a] += w0 * r0 + w1 * r1 + w2 * r2;
+                for b in a..27 {
+                    row[b] += w0 * v0[b] + w1 * v1[b] + w2 * v2[b];
                 }
-            } else {
-                for a in 0..27 {
-                    let wa = theta * vals[a];
-                    rhs[idx[a]] += wa * res;
-                    let row = &mut ata[idx[a] * c..idx[a] * c + c];
-                    for b in a..27 {
-                        row[idx[b]] += wa * vals[b];
-                    }
+            }
+            continue;
+        }
+        for (vals, idx, res, theta) in &rows {
+            for a in 0..27 {
+                let wa = theta * vals[a];
+                rhs[idx[a]] += wa * res;
+                let row = &mut ata[idx[a] * c..idx[a] * c + c];
+                for b in a..27 {
+                    row[idx[b]] += wa * vals[b];
                 }
             }
         }
