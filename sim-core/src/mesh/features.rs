@@ -15,8 +15,9 @@
 //! Where vertices sit on a crease line, the mesher's choice of each quad's diagonal (the one
 //! whose triangles face like their corners) keeps the crease from being cut across.
 //!
-//! Contract: allocation-free (at most [`MAX_NEIGHBOURS`] points are considered); a vertex
-//! moves by less than the `reach` its caller gives; `None` leaves it where it was.
+//! Contract: [`sharpen`] is allocation-free (at most [`MAX_NEIGHBOURS`] points are
+//! considered); a vertex moves by less than the `reach` its caller gives; `None` leaves it
+//! where it was. [`unfold`] is a pass over the finished mesh.
 
 use glam::DVec3;
 
@@ -117,10 +118,13 @@ pub(crate) fn sharpen(
 }
 
 /// Move back the sharpened vertices (`(id, where it was, its normal)`) of triangles that
-/// moving them turned over (against their vertices' normals), until none is; returns how many
-/// moved back. Surface nets joins neighbouring cells' vertices, and two vertices pulled onto
-/// different planes of a crease can fold the triangle between them.
+/// moving them turned over (against their vertices' normals), in up to four rounds; returns
+/// how many moved back. Surface nets joins neighbouring cells' vertices, and two vertices
+/// pulled onto different planes of a crease can fold the triangle between them.
 pub(crate) fn unfold(mesh: &mut TriMesh, sharpened: &[(u32, DVec3, DVec3)]) -> usize {
+    if sharpened.is_empty() {
+        return 0;
+    }
     let mut original = std::collections::HashMap::with_capacity(sharpened.len());
     for &(id, p, n) in sharpened {
         original.insert(id, (p, n));
