@@ -198,15 +198,16 @@ pub(crate) fn wedge_point(
         return None; // smooth
     }
     let (mut na, mut nb) = (points[a].normal, points[b].normal);
+    // Which face a normal is nearer: 0 (`na`'s) or 1 (`nb`'s).
+    let face_of = |n: DVec3, na: DVec3, nb: DVec3| usize::from(n.dot(nb) > n.dot(na));
     let mut planes = [Plane { n: na, offset: 0.0 }; 2];
     for _ in 0..3 {
         let mut sum = [(DVec3::ZERO, DVec3::ZERO, 0.0); 2];
         for q in points {
-            let (da, db) = (q.normal.dot(na), q.normal.dot(nb));
-            let g = usize::from(db > da);
-            if da.max(db) < GROUP_COS {
+            if q.normal.dot(na).max(q.normal.dot(nb)) < GROUP_COS {
                 continue;
             }
+            let g = face_of(q.normal, na, nb);
             sum[g].0 += q.normal * q.weight;
             sum[g].1 += q.centre * q.weight;
             sum[g].2 += q.weight;
@@ -226,28 +227,25 @@ pub(crate) fn wedge_point(
     if na.dot(nb) > CREASE_ANGLE_COS || na.dot(nb) < OPPOSED_COS {
         return None;
     }
+    // The crease's direction: between 35° and 150° apart, the two normals are far from
+    // parallel (|na × nb|² > 0.24).
+    let direction = na.cross(nb);
+    let denominator = direction.length_squared();
     // Every normal lies on the arc between the two faces': a third face (a corner, the far
     // side of a thin blade) is not a wedge of two.
-    let across = na.cross(nb).normalize();
+    let across = direction / denominator.sqrt();
     if points.iter().any(|q| q.normal.dot(across).abs() > ARC_SIN) {
         return None;
     }
-    // Convex when each group's points lie behind the other's plane.
-    let convex = {
-        let (mut behind, mut total) = (0.0, 0.0);
-        for q in points {
-            let g = usize::from(q.normal.dot(nb) > q.normal.dot(na));
-            let d = planes[1 - g].distance(q.centre);
-            behind += q.weight
-                * if d < 0.0 {
-                    -1.0
-                } else {
-                    f64::from(u8::from(d > 0.0))
-                };
-            total += q.weight;
-        }
-        behind < 0.0 && total > 0.0
-    };
+    // Convex when each face's points lie behind the other's plane (on it counts neither way).
+    let convex = points
+        .iter()
+        .map(|q| {
+            let d = planes[1 - face_of(q.normal, na, nb)].distance(q.centre);
+            q.weight * f64::from(i8::from(d > 0.0) - i8::from(d < 0.0))
+        })
+        .sum::<f64>()
+        < 0.0;
     let wedge = |x: DVec3| {
         let (da, db) = (planes[0].distance(x), planes[1].distance(x));
         if convex { da.max(db) } else { da.min(db) }
@@ -272,29 +270,24 @@ pub(crate) fn wedge_point(
         let turned = (normal.normalize_or_zero() * (1.0 - w) + n * w).normalize_or(n);
         (w > 0.0).then(|| (p + (x - p) * w, turned))
     };
-    let direction = na.cross(nb);
-    let denominator = direction.length_squared();
-    if denominator > 1e-12 {
-        // The crease line (a point on both planes, its direction) where it crosses the cell.
-        let on_line =
-            (nb * planes[0].offset - na * planes[1].offset).cross(direction) / denominator;
-        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
-        for a in 0..3 {
-            let (o, d) = (on_line[a], direction[a]);
-            if d.abs() < 1e-300 {
-                if o < cell.0[a] || o > cell.1[a] {
-                    (t0, t1) = (1.0, 0.0);
-                }
-            } else {
-                let (u, v) = ((cell.0[a] - o) / d, (cell.1[a] - o) / d);
-                (t0, t1) = (t0.max(u.min(v)), t1.min(u.max(v)));
+    // The crease line (a point on both planes, its direction) where it crosses the cell.
+    let on_line = (nb * planes[0].offset - na * planes[1].offset).cross(direction) / denominator;
+    let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+    for a in 0..3 {
+        let (o, d) = (on_line[a], direction[a]);
+        if d.abs() < 1e-300 {
+            if o < cell.0[a] || o > cell.1[a] {
+                (t0, t1) = (1.0, 0.0);
             }
+        } else {
+            let (u, v) = ((cell.0[a] - o) / d, (cell.1[a] - o) / d);
+            (t0, t1) = (t0.max(u.min(v)), t1.min(u.max(v)));
         }
-        if t0 <= t1 {
-            let t = ((p - on_line).dot(direction) / denominator).clamp(t0, t1);
-            let x = on_line + direction * t;
-            return partly(x, (na + nb).normalize());
-        }
+    }
+    if t0 <= t1 {
+        let t = ((p - on_line).dot(direction) / denominator).clamp(t0, t1);
+        let x = on_line + direction * t;
+        return partly(x, (na + nb).normalize());
     }
     // The wedge's nearest point: on a plane where the other does not cut it off.
     let mut best: Option<(DVec3, DVec3)> = None;
