@@ -95,6 +95,9 @@ struct FieldData {
     /// Slots the fit made; those from here on were added by [`GlobalField::relocate_point`].
     fitted: usize,
     grid: SupportGrid,
+    /// Every inlier point as a trust witness, where the local fields are thinned
+    /// ([`FitParams::centre_spacing`]); `None`: the fields' own points are the witnesses.
+    witnesses: Option<Witnesses>,
     refit: Arc<RefitOperator>,
     scale: f64,
     outliers: usize,
@@ -126,11 +129,18 @@ impl GlobalField {
             params.normal_agreement,
             typical,
         );
-        let order = morton_order(points);
-        let mut slot = vec![0u32; n];
+        // The points that get a local field (all of them unless thinned), in Morton order.
+        let centres = thinned_centres(knn, &outlier, params.centre_spacing);
+        let centre_points: Vec<DVec3> = centres.iter().map(|&i| points[i as usize]).collect();
+        let order: Vec<u32> = morton_order(&centre_points)
+            .into_iter()
+            .map(|c| centres[c as usize])
+            .collect();
+        let mut slot = vec![NO_LOCAL; n];
         for (s, &i) in order.iter().enumerate() {
             slot[i as usize] = s as u32;
         }
+        let n = order.len();
         let c = params.size.pow(3);
         let mut coeffs = vec![0.0; n * c];
         let mut frames = vec![
@@ -196,6 +206,23 @@ impl GlobalField {
         sup_sorted.sort_by(f64::total_cmp);
         let scale = sup_sorted[sup_sorted.len() / 2];
         let grid = SupportGrid::new(&centers, &support, 2.0 * scale);
+        let witnesses = (params.centre_spacing > 0.0).then(|| {
+            let support: Vec<f64> = (0..points.len())
+                .map(|i| {
+                    let r = if radii[i] > 0.0 { radii[i] } else { typical };
+                    if outlier[i] {
+                        0.0
+                    } else {
+                        params.support * r * (1.0 + params.offset)
+                    }
+                })
+                .collect();
+            Witnesses {
+                grid: SupportGrid::new(points, &support, 2.0 * scale),
+                normals: normals.to_vec(),
+                support,
+            }
+        });
         let refit = RefitOperator::new(params.size, params.size)
             .map_err(|_| FieldError::Param("size must be in 3..=6"))?;
         Ok(Self {
@@ -211,6 +238,7 @@ impl GlobalField {
                 orphans: Vec::new(),
                 fitted: n,
                 grid,
+                witnesses,
                 refit: Arc::new(refit),
                 scale,
                 outliers: outlier.iter().filter(|o| **o).count(),
@@ -295,14 +323,23 @@ impl GlobalField {
         let mut groups = [Blend::default(); 2];
         // The split is relative to the normal of the most central covering support (largest
         // weight; ties to the lower index), so it does not depend on the storage order.
+        // One scan finds the supports containing x (keeping up to HITS of them) and the most
+        // central one; the blend then visits the kept ones (past HITS it scans again), in the
+        // scan's order either way.
         let (mut best, mut n_ref) = ((f64::INFINITY, usize::MAX), DVec3::ZERO);
+        let mut hits = [(0u32, 0.0f64); HITS];
+        let mut count = 0usize;
         supports.for_each_containing(x, |i, _, dist2| {
+            if count < HITS {
+                hits[count] = (i as u32, dist2);
+            }
+            count += 1;
             let key = (dist2 / (d.support[i] * d.support[i]), i);
             if key.0 < best.0 || (key.0 == best.0 && key.1 < best.1) {
                 (best, n_ref) = (key, d.frames[i].axes[2]);
             }
         });
-        supports.for_each_containing(x, |i, rel, dist2| {
+        let mut visit = |i: usize, rel: DVec3, dist2: f64| {
             let r = d.support[i];
             let fr = &d.frames[i];
             let normal = fr.axes[2];
@@ -328,7 +365,15 @@ impl GlobalField {
             acc.swf += phi * s;
             acc.gsw += gphi;
             acc.gswf += gphi * s + gs * phi;
-        });
+        };
+        if count <= HITS {
+            for &(i, dist2) in &hits[..count] {
+                let i = i as usize;
+                visit(i, x - d.frames[i].center, dist2);
+            }
+        } else {
+            supports.for_each_containing(x, visit);
+        }
         groups
     }
 
@@ -415,7 +460,7 @@ impl GlobalField {
     /// [`GlobalField::is_trusted`] with the supports taken from a list gathered for a box
     /// ([`GlobalField::gather_supports`]): the same answer for every `x` in that box.
     pub fn is_trusted_near(&self, x: DVec3, supports: &SupportList) -> bool {
-        self.trust_over(x, supports).0
+        self.trust_over_list(x, supports).0
     }
 
     /// Where `x` is trusted ([`GlobalField::is_trusted_near`]), the way the points vouching
@@ -425,7 +470,7 @@ impl GlobalField {
     /// fraction of a spacing off its neighbours' surface, as scans have), a small inverted
     /// piece a cell or so beside the surface.
     pub fn trusted_facing_near(&self, x: DVec3, supports: &SupportList) -> Option<DVec3> {
-        let (trusted, facing) = self.trust_over(x, supports);
+        let (trusted, facing) = self.trust_over_list(x, supports);
         trusted.then_some(facing)
     }
 
@@ -467,6 +512,30 @@ impl GlobalField {
     /// Whether `x` is trusted, and the vouching points' normals weighted by their blending
     /// weights.
     fn trust_over(&self, x: DVec3, supports: &impl Supports) -> (bool, DVec3) {
+        let d = &*self.inner;
+        match &d.witnesses {
+            None => self.trust_by(x, supports, &d.normals, &d.support),
+            Some(w) => self.trust_by(x, &w.grid, &w.normals, &w.support),
+        }
+    }
+
+    /// [`GlobalField::trust_over`] of a list gathered for a box: its witnesses, if any.
+    fn trust_over_list(&self, x: DVec3, list: &SupportList) -> (bool, DVec3) {
+        let d = &*self.inner;
+        match &d.witnesses {
+            None => self.trust_by(x, list, &d.normals, &d.support),
+            Some(w) => self.trust_by(x, &Items(&list.witnesses), &w.normals, &w.support),
+        }
+    }
+
+    /// The trust test over `supports`, whose ids index `normals` and `support`.
+    fn trust_by(
+        &self,
+        x: DVec3,
+        supports: &impl Supports,
+        normals: &[DVec3],
+        support: &[f64],
+    ) -> (bool, DVec3) {
         if !x.is_finite() {
             return (false, DVec3::ZERO);
         }
@@ -475,14 +544,14 @@ impl GlobalField {
         let (mut weight_sum, mut vouching, mut off_plane) = (0.0, 0.0, 0.0);
         let mut facing = DVec3::ZERO;
         supports.for_each_containing(x, |i, rel, dist2| {
-            let r2 = d.support[i] * d.support[i];
+            let r2 = support[i] * support[i];
             let phi = weight((dist2 / r2).sqrt()).0;
             weight_sum += phi;
             if dist2 <= tau2 * r2 {
                 // A point vouches for x; it disowns x lying far off its tangent plane.
                 vouching += phi + f64::MIN_POSITIVE;
-                facing += d.normals[i] * phi;
-                if rel.dot(d.normals[i]).abs() > d.params.trust_plane * d.support[i] {
+                facing += normals[i] * phi;
+                if rel.dot(normals[i]).abs() > d.params.trust_plane * support[i] {
                     off_plane += phi + f64::MIN_POSITIVE;
                 }
             }
@@ -515,7 +584,12 @@ impl GlobalField {
     /// Collect into `out` every support that reaches into the box `[lo, hi]` (for
     /// [`GlobalField::value_near`] at points of that box).
     pub fn gather_supports(&self, lo: DVec3, hi: DVec3, out: &mut SupportList) {
-        self.inner.grid.gather_box(lo, hi, &mut out.items);
+        let d = &*self.inner;
+        d.grid.gather_box(lo, hi, &mut out.items);
+        out.witnesses.clear();
+        if let Some(w) = &d.witnesses {
+            w.grid.gather_box(lo, hi, &mut out.witnesses);
+        }
     }
 
     /// Every inlier's centre (and that of each field added since the fit), for callers that
@@ -666,7 +740,8 @@ impl GlobalField {
     /// [`RefitOperator`]'s nodes mapped by `frame`). The old field stays in the blend as an
     /// orphan (it still represents the field around where it is); the new one keeps the old
     /// support radius and takes `frame`'s third axis as its normal. Returns the new slot, or
-    /// `None` (nothing changed) for a point without a local field or an outlier. O(1)
+    /// `None` (nothing changed) for a point without a local field, an outlier, or any point of
+    /// a thinned field ([`FitParams::centre_spacing`]: a static surface). O(1)
     /// amortised, unless the field is shared (copy-on-write).
     pub fn relocate_point(
         &mut self,
@@ -674,6 +749,9 @@ impl GlobalField {
         frame: LocalFrame,
         samples: &[f64],
     ) -> Option<usize> {
+        if self.inner.witnesses.is_some() {
+            return None; // a thinned field is static (its witnesses would not follow)
+        }
         let old = self.slot_of(i)?;
         let support = self.inner.support[old];
         if support.is_nan() || support <= 0.0 {
@@ -706,10 +784,23 @@ impl GlobalField {
 /// The slot of a point without a local field.
 const NO_LOCAL: u32 = u32::MAX;
 
+/// The points the trust tests ([`GlobalField::is_trusted`]) consult when the local fields sit
+/// at a thinned subset of them: all inliers, each with the normal and the support radius its
+/// own field would have had, so a thinned field trusts the same places as a full one (the
+/// thinned centres alone leave holes between them).
+#[derive(Debug, Clone)]
+struct Witnesses {
+    grid: SupportGrid,
+    normals: Vec<DVec3>,
+    support: Vec<f64>,
+}
+
 /// Supports gathered for a box ([`GlobalField::gather_supports`]); reuse one per thread.
 #[derive(Debug, Clone, Default)]
 pub struct SupportList {
     items: Vec<SupportItem>,
+    /// The trust witnesses reaching the box, where the field has them ([`Witnesses`]).
+    witnesses: Vec<SupportItem>,
 }
 
 impl SupportList {
@@ -724,6 +815,12 @@ impl SupportList {
         out.items.clear();
         out.items
             .extend(self.items.iter().filter(|item| item.reaches_box(lo, hi)));
+        out.witnesses.clear();
+        out.witnesses.extend(
+            self.witnesses
+                .iter()
+                .filter(|item| item.reaches_box(lo, hi)),
+        );
     }
 }
 
@@ -742,8 +839,18 @@ impl Supports for SupportGrid {
 
 impl Supports for SupportList {
     #[inline]
+    fn for_each_containing(&self, x: DVec3, visit: impl FnMut(usize, DVec3, f64)) {
+        Items(&self.items).for_each_containing(x, visit);
+    }
+}
+
+/// Supports in a slice (a list's blend supports or its witnesses).
+struct Items<'a>(&'a [SupportItem]);
+
+impl Supports for Items<'_> {
+    #[inline]
     fn for_each_containing(&self, x: DVec3, mut visit: impl FnMut(usize, DVec3, f64)) {
-        for item in &self.items {
+        for item in self.0 {
             let rel = x - item.center;
             let dist2 = rel.length_squared();
             if dist2 < item.radius2 {
@@ -756,6 +863,10 @@ impl Supports for SupportList {
 /// The zero set is untrusted where points holding this share of the vouching weight disown it.
 const OFF_PLANE_SHARE: f64 = 0.75;
 
+/// Supports a blend keeps from its one scan ([`GlobalField::blend`]); past this many it
+/// scans again.
+const HITS: usize = 64;
+
 /// Cosine of the largest angle between a meshed zero set's outward direction and the way its
 /// vouching points face ([`GlobalField::faces_its_points`]).
 const FACING_LIMIT: f64 = -0.5;
@@ -763,6 +874,35 @@ const FACING_LIMIT: f64 = -0.5;
 /// Beyond this coordinate magnitude the nearest-point search runs from a point pulled in along
 /// the query's ray (squared distances overflow past ~1e154).
 const FAR_QUERY: f64 = 1e150;
+
+/// The points that get a local field, ascending: every point when `spacing` is 0, else a
+/// subset where no two lie within `spacing` of the first one's neighbourhood radius (greedy in
+/// index order over the k-NN graph; outliers are left out, they would get no field anyway).
+/// Every point keeps a centre within that distance or is itself one.
+fn thinned_centres(knn: &KnnGraph, outlier: &[bool], spacing: f64) -> Vec<u32> {
+    let n = knn.len();
+    if spacing <= 0.0 {
+        return (0..n as u32).collect();
+    }
+    let mut taken = vec![false; n];
+    let mut centres = Vec::new();
+    for i in 0..n {
+        if outlier[i] {
+            continue;
+        }
+        let reach = spacing * knn.radius(i);
+        let covered = knn
+            .neighbours(i)
+            .iter()
+            .zip(knn.distances(i))
+            .any(|(&j, &d)| taken[j as usize] && d <= reach);
+        if !covered {
+            taken[i] = true;
+            centres.push(i as u32);
+        }
+    }
+    centres
+}
 
 /// Point indices sorted along a Morton (Z-order) curve over the bounding box.
 fn morton_order(points: &[DVec3]) -> Vec<u32> {
@@ -830,6 +970,7 @@ impl Clone for FieldData {
             orphans: self.orphans.clone(),
             fitted: self.fitted,
             grid: self.grid.clone(),
+            witnesses: self.witnesses.clone(),
             refit: Arc::clone(&self.refit),
             scale: self.scale,
             outliers: self.outliers,
@@ -879,8 +1020,9 @@ fn validate(
         p.trust > 0.0 && p.trust.is_finite(),
         p.trust_weight >= 0.0 && p.trust_weight.is_finite(),
         p.trust_plane > 0.0,
+        (0.0..=1.0).contains(&p.centre_spacing),
     ];
-    const WHAT: [&str; 10] = [
+    const WHAT: [&str; 11] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -891,6 +1033,7 @@ fn validate(
         "trust must be positive and finite",
         "trust_weight must be finite and ≥ 0",
         "trust_plane must be positive (infinite: no plane test)",
+        "centre_spacing must be in [0, 1]",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),

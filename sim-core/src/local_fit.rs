@@ -59,6 +59,15 @@ pub struct FitParams {
     /// single noisy points' fits make are left out. `false`: no such test.
     #[serde(default = "default_trust_facing")]
     pub trust_facing: bool,
+    /// Local fields at a thinned subset of the points, for a static surface (meshing, not
+    /// sculpting): a point gets its own field only where no point already given one lies within
+    /// this fraction (0..=1) of its neighbourhood radius; every fit still uses its `k` nearest
+    /// of all the points. Fewer fields cover each place, so the fits and every evaluation of the
+    /// blend cost less; the trust tests still consult every point. Such a field is static
+    /// ([`crate::field::GlobalField::relocate_point`] leaves it unchanged). 0: a field at every
+    /// point (the papers' model, which sculpting needs: each point carries its own field).
+    #[serde(default)]
+    pub centre_spacing: f64,
 }
 
 fn default_trust_facing() -> bool {
@@ -92,6 +101,7 @@ impl Default for FitParams {
             trust_weight: 1.0,
             trust_plane: 0.3,
             trust_facing: true,
+            centre_spacing: 0.0,
         }
     }
 }

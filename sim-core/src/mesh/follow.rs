@@ -96,11 +96,11 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
         // 1. Evaluate the corners not yet known, in parallel, each with its home block's
         //    supports (gathered once per block).
         let mut need: Vec<Node> = frontier
-            .iter()
-            .flat_map(|&c| corners(c))
+            .par_iter()
+            .flat_map_iter(|&c| corners(c))
             .filter(|&n| !values.contains_key(&key(n)))
             .collect();
-        need.sort_unstable();
+        need.par_sort_unstable();
         need.dedup();
         let mut new_blocks: Vec<BlockKey> = need
             .iter()

@@ -298,6 +298,14 @@ fn bad_parameters_are_errors() {
             k: 1,
             ..FitParams::default()
         },
+        FitParams {
+            centre_spacing: 1.5,
+            ..FitParams::default()
+        },
+        FitParams {
+            centre_spacing: f64::NAN,
+            ..FitParams::default()
+        },
     ] {
         let r = reconstruct(
             &pts,
