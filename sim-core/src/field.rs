@@ -1,6 +1,7 @@
 //! The global implicit field (papers' Eq. 5): local B-spline fields blended by compactly
 //! supported weights, `f(x) = Σ sᵢ(x) φᵢ(x) / Σ φᵢ(x)`, with the nearest point's signed distance
-//! where no support covers `x`; where the covering fields come from the two opposite sides of
+//! where no support covers `x` (a field at every point, or at a thinned subset of them for a
+//! static surface, [`FitParams::centre_spacing`], whose trust tests still consult every point); where the covering fields come from the two opposite sides of
 //! a thin solid or gap, the sides are blended apart and combined by max / min (see
 //! [`GlobalField::value_and_gradient`]). Sign: `f < 0` inside, `f > 0` outside, `∇f` outward.
 //!
@@ -785,9 +786,9 @@ impl GlobalField {
 const NO_LOCAL: u32 = u32::MAX;
 
 /// The points the trust tests ([`GlobalField::is_trusted`]) consult when the local fields sit
-/// at a thinned subset of them: all inliers, each with the normal and the support radius its
-/// own field would have had, so a thinned field trusts the same places as a full one (the
-/// thinned centres alone leave holes between them).
+/// at a thinned subset of them: all inliers, each with its normal and about the support radius
+/// its own field would have had (from its k-NN radius), so a thinned field trusts the places a
+/// full one does (the thinned centres alone leave holes between them).
 #[derive(Debug, Clone)]
 struct Witnesses {
     grid: SupportGrid,
@@ -876,9 +877,9 @@ const FACING_LIMIT: f64 = -0.5;
 const FAR_QUERY: f64 = 1e150;
 
 /// The points that get a local field, ascending: every point when `spacing` is 0, else a
-/// subset where no two lie within `spacing` of the first one's neighbourhood radius (greedy in
-/// index order over the k-NN graph; outliers are left out, they would get no field anyway).
-/// Every point keeps a centre within that distance or is itself one.
+/// greedy pass in index order over the k-NN graph that skips a point where a centre already
+/// lies within `spacing` × its neighbourhood radius, so every inlier is a centre or lies that
+/// near one (outliers are left out: they would get no field anyway).
 fn thinned_centres(knn: &KnnGraph, outlier: &[bool], spacing: f64) -> Vec<u32> {
     let n = knn.len();
     if spacing <= 0.0 {
