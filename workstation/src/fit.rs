@@ -329,8 +329,8 @@ const FIT_CENTRE_SPACING: f64 = 0.35;
 /// `fit`'s default [`FitParams::regularization`], 30× the library's. On the MeshLab comparison
 /// shapes (resolution 200, thinned centres) against 1e-5: RMS 23 % lower on the rounded box,
 /// 21 % on the thin plate, 12 % on the rocker arm, 14 % on the fandisk, the same on the scans
-/// and the CSG crease, 37 % higher on the torus (still a third of APSS's error there); 1e-4
-/// left a two-triangle piece beside the cow's thin parts and 1e-3 three pieces, with the torus
+/// and the CSG crease, 37 % higher on the torus (still a third of APSS's error there). 1e-4
+/// keeps the torus nearer (1.2×) but the plate's max at 1.4× this one's; 1e-3 puts the torus
 /// at 1.9×.
 const FIT_REGULARIZATION: f64 = 3e-4;
 
