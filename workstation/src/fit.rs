@@ -319,7 +319,6 @@ fn write_mesh(path: &Path, mesh: &TriMesh) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", path.display()))
 }
 
-/// Run `fit` and return the report (printing is the caller's choice; see [`print`]).
 /// `fit`'s default [`FitParams::centre_spacing`]. On the eleven MeshLab comparison shapes at
 /// resolution 200, 0.35 against a field at every point: 0.7–0.9 of the time, RMS from 4 %
 /// worse to 43 % better (the CSG crease), the max up to 23 % larger, one piece each; 0.25 left
@@ -334,6 +333,7 @@ const FIT_CENTRE_SPACING: f64 = 0.35;
 /// at 1.9×.
 const FIT_REGULARIZATION: f64 = 3e-4;
 
+/// Run `fit` and return the report (printing is the caller's choice; see [`print`]).
 pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
     anyhow::ensure!(
         args.surface_samples <= MAX_SURFACE_SAMPLES,
