@@ -479,7 +479,7 @@ impl GlobalField {
     /// Whether a zero set whose outward direction is `outward` faces the way `facing` (from
     /// [`GlobalField::trusted_facing_near`]) says its points do; always, with
     /// [`FitParams::trust_facing`] off, and where the points disagree among themselves
-    /// (`|facing|` below [`FACING_AGREEMENT`]: the sides of a part thinner than the supports,
+    /// (`|facing|` below 0.8: the sides of a part thinner than the supports,
     /// a tail or a horn, whose normals point every way and say nothing about which way the
     /// zero set there should face).
     pub fn faces_its_points(&self, outward: DVec3, facing: DVec3) -> bool {
