@@ -455,13 +455,13 @@ impl GlobalField {
     /// every point near them). A sampled surface passes all three: it lies within half a
     /// spacing of a sample and near its neighbours' planes. Allocation-free.
     pub fn is_trusted(&self, x: DVec3) -> bool {
-        self.trust_over(x, &self.inner.grid).0
+        self.trust_at(x).0
     }
 
     /// [`GlobalField::is_trusted`] with the supports taken from a list gathered for a box
     /// ([`GlobalField::gather_supports`]): the same answer for every `x` in that box.
     pub fn is_trusted_near(&self, x: DVec3, supports: &SupportList) -> bool {
-        self.trust_over_list(x, supports).0
+        self.trust_near(x, supports).0
     }
 
     /// Where `x` is trusted ([`GlobalField::is_trusted_near`]), the way the points vouching
@@ -472,7 +472,7 @@ impl GlobalField {
     /// fraction of a spacing off its neighbours' surface, as scans have), a small inverted
     /// piece a cell or so beside the surface.
     pub fn trusted_facing_near(&self, x: DVec3, supports: &SupportList) -> Option<DVec3> {
-        let (trusted, facing) = self.trust_over_list(x, supports);
+        let (trusted, facing) = self.trust_near(x, supports);
         trusted.then_some(facing)
     }
 
@@ -490,7 +490,7 @@ impl GlobalField {
 
     /// [`GlobalField::trusted_facing_near`] with the supports from the index.
     pub fn trusted_facing(&self, x: DVec3) -> Option<DVec3> {
-        let (trusted, facing) = self.trust_over(x, &self.inner.grid);
+        let (trusted, facing) = self.trust_at(x);
         trusted.then_some(facing)
     }
 
@@ -515,18 +515,18 @@ impl GlobalField {
         });
     }
 
-    /// Whether `x` is trusted, and the vouching points' normals weighted by their blending
-    /// weights.
-    fn trust_over(&self, x: DVec3, supports: &impl Supports) -> (bool, DVec3) {
+    /// Whether `x` is trusted, and the vouching points' mean normal weighted by their blending
+    /// weights ([`GlobalField::trusted_facing_near`]), with the witnesses from the index.
+    fn trust_at(&self, x: DVec3) -> (bool, DVec3) {
         let d = &*self.inner;
         match &d.witnesses {
-            None => self.trust_by(x, supports, &d.normals, &d.support),
+            None => self.trust_by(x, &d.grid, &d.normals, &d.support),
             Some(w) => self.trust_by(x, &w.grid, &w.normals, &w.support),
         }
     }
 
-    /// [`GlobalField::trust_over`] of a list gathered for a box: its witnesses, if any.
-    fn trust_over_list(&self, x: DVec3, list: &SupportList) -> (bool, DVec3) {
+    /// [`GlobalField::trust_at`] with the witnesses of a list gathered for a box.
+    fn trust_near(&self, x: DVec3, list: &SupportList) -> (bool, DVec3) {
         let d = &*self.inner;
         match &d.witnesses {
             None => self.trust_by(x, list, &d.normals, &d.support),
