@@ -441,7 +441,7 @@ impl GlobalField {
     ///   ([`FitParams::trust`]);
     /// - the blending weight there, `Σ φᵢ(x)`, is at least [`FitParams::trust_weight`];
     /// - the vouching points do not disown it: less than three quarters of their weight comes
-    ///   from points with `x` more than [`FitParams::trust_plane`] (0.3) support radii off
+    ///   from points with `x` more than [`FitParams::trust_plane`] (0.2) support radii off
     ///   their tangent plane.
     ///
     /// Nearer the points the blend interpolates them; farther out the local fits extrapolate,
@@ -1029,6 +1029,7 @@ fn validate(
         (3..=MAX_SIZE).contains(&p.size),
         p.offset > 0.0 && p.offset < 1.0,
         p.weight_width > 0.0 && p.weight_width.is_finite(),
+        p.normal_weight > 0.0 && p.normal_weight.is_finite(),
         p.regularization > 0.0 && p.regularization.is_finite(),
         p.support > 0.0 && p.support <= 1.0,
         p.normal_agreement.is_finite(),
@@ -1038,10 +1039,11 @@ fn validate(
         p.trust_plane > 0.0,
         (0.0..=1.0).contains(&p.centre_spacing),
     ];
-    const WHAT: [&str; 11] = [
+    const WHAT: [&str; 12] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
+        "normal_weight must be positive and finite",
         "regularization must be positive",
         "support must be in (0, 1]",
         "normal_agreement must be finite",

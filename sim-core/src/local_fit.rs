@@ -25,6 +25,13 @@ pub struct FitParams {
     pub offset: f64,
     /// Width `h` of the row weight `θ(d) = exp(−d²/h²)`, as a fraction of `r`.
     pub weight_width: f64,
+    /// Weight of a neighbour's two off-surface rows (its normal) against its on-surface row
+    /// (its position). 1: equal, the papers' fit. Lower trusts positions over normals, which
+    /// suits normals averaged across edges, as a mesh's vertex normals are at a CAD part's
+    /// creases and a coarse mesh's corners: such a normal bends a fit that follows it fully
+    /// into a bulge beside the edge.
+    #[serde(default = "default_normal_weight")]
+    pub normal_weight: f64,
     /// Tikhonov weight toward the planar field, relative to the mean diagonal of the normal matrix.
     pub regularization: f64,
     /// Radius of the blending weight `φ`, as a fraction of the domain half-size (≤ 1 keeps the
@@ -70,6 +77,10 @@ pub struct FitParams {
     pub centre_spacing: f64,
 }
 
+fn default_normal_weight() -> f64 {
+    FitParams::default().normal_weight
+}
+
 fn default_trust_facing() -> bool {
     true
 }
@@ -93,13 +104,14 @@ impl Default for FitParams {
             size: 3,
             offset: 0.1,
             weight_width: 0.7,
+            normal_weight: 1.0,
             regularization: 1e-5,
             support: 1.0,
             normal_agreement: -0.5,
             outlier_ratio: 4.0,
             trust: 0.7,
             trust_weight: 1.0,
-            trust_plane: 0.3,
+            trust_plane: 0.2,
             trust_facing: true,
             centre_spacing: 0.0,
         }
@@ -230,15 +242,17 @@ pub fn fit_local(
         let p = hood.points[j];
         let theta = (-(p - hood.center).length_squared() * inv_h2).exp();
         let nj = hood.normals[j];
-        for (row, (x, target)) in
-            rows.iter_mut()
-                .zip([(p, 0.0), (p + nj * eps, eps), (p - nj * eps, -eps)])
-        {
+        let off = theta * params.normal_weight;
+        for (row, (x, target, weight)) in rows.iter_mut().zip([
+            (p, 0.0, theta),
+            (p + nj * eps, eps, off),
+            (p - nj * eps, -eps, off),
+        ]) {
             let [u, v, w] = frame.to_local(x);
             basis3(size, u, v, w, &mut row.0, &mut row.1);
             // Residual against the planar prior `w − ½` (normalised units).
             row.2 = target * inv_edge - (w - 0.5);
-            row.3 = theta;
+            row.3 = weight;
         }
         if size == 3 {
             // Dense case (the common one): the neighbour's three rows in one pass over the

@@ -295,6 +295,14 @@ fn bad_parameters_are_errors() {
             ..FitParams::default()
         },
         FitParams {
+            normal_weight: 0.0,
+            ..FitParams::default()
+        },
+        FitParams {
+            normal_weight: f64::INFINITY,
+            ..FitParams::default()
+        },
+        FitParams {
             k: 1,
             ..FitParams::default()
         },
