@@ -1,7 +1,8 @@
 //! The global implicit field (papers' Eq. 5): local B-spline fields blended by compactly
 //! supported weights, `f(x) = Σ sᵢ(x) φᵢ(x) / Σ φᵢ(x)`, with the nearest point's signed distance
 //! where no support covers `x` (a field at every point, or at a thinned subset of them for a
-//! static surface, [`FitParams::centre_spacing`], whose trust tests still consult every point); where the covering fields come from the two opposite sides of
+//! static surface, [`FitParams::centre_spacing`], whose trust tests still consult every
+//! point); where the covering fields come from the two opposite sides of
 //! a thin solid or gap, the sides are blended apart and combined by max / min (see
 //! [`GlobalField::value_and_gradient`]). Sign: `f < 0` inside, `f > 0` outside, `∇f` outward.
 //!
@@ -620,8 +621,9 @@ impl GlobalField {
             .map(move |s| (d.frames[s].center, d.support[s]))
     }
 
-    /// Number of points fitted (local fields, outliers included; relocated fields not
-    /// counted twice).
+    /// Number of local fields the fit made: one per point (outliers' empty slots included), or
+    /// one per centre of a thinned field ([`FitParams::centre_spacing`]), so fewer than the
+    /// points there; relocated fields are not counted twice.
     pub fn len(&self) -> usize {
         self.inner.fitted
     }

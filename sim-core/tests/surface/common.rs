@@ -38,7 +38,8 @@ pub fn assert_bounded(field: &GlobalField, points: &[DVec3], grow: f64, grad_bou
         hi + DVec3::splat(grow * diag),
     );
     let index = PointIndex::new(points);
-    let max_support = (0..field.len())
+    // Over the points, not `field.len()`: a thinned field has fewer fields than points.
+    let max_support = (0..points.len())
         .map(|i| field.support_radius(i))
         .fold(0.0, f64::max);
     let mut rng = ChaCha8Rng::seed_from_u64(3);
