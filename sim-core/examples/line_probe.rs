@@ -1,0 +1,145 @@
+//! Diagnostic: why the zero set lies where it does at one place. Fits a PLY point file (points
+//! and normals) and, along a line through a point `C` in direction `N`, prints where the
+//! blended field crosses zero and where each local field covering `C` would put it on its own,
+//! beside that field's centre, normal, support radius and its own tangent plane's crossing (the
+//! plane its fit is regularised toward). A local field whose zero lies far from the others' and
+//! from its own plane is bending the surface there.
+//!
+//! ```text
+//! cargo run --release -p sim-core --example line_probe -- POINTS.ply CX,CY,CZ NX,NY,NZ HALF [KEY=VALUE ...]
+//! ```
+//!
+//! `HALF` is the half-length of the searched segment (world units). Keys override the library's
+//! [`FitParams`]: `k`, `weight_width`, `normal_weight`, `regularization`, `centre_spacing`,
+//! `offset`. `workstation fit`'s defaults are `normal_weight=0.25 regularization=3e-4
+//! centre_spacing=0.35`. Crossings are offsets along `N` from `C`; `-` means none in the segment.
+use std::process::ExitCode;
+
+use glam::DVec3;
+use sim_core::bspline::eval3_value;
+use sim_core::io::{self, Format};
+use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
+use sim_core::{FitParams, NoProgress};
+
+fn vector(s: &str) -> Result<DVec3, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(str::parse)
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{s}: {e}"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(x, y, z)),
+        _ => Err(format!("{s}: expected three finite numbers x,y,z")),
+    }
+}
+
+/// First sign change of `f` on `[-half, half]` (400 steps, linear interpolation).
+fn zero_crossing(f: impl Fn(f64) -> f64, half: f64) -> Option<f64> {
+    const STEPS: usize = 400;
+    let mut prev = (-half, f(-half));
+    for s in 1..=STEPS {
+        let t = -half + 2.0 * half * s as f64 / STEPS as f64;
+        let v = f(t);
+        if (v < 0.0) != (prev.1 < 0.0) {
+            return Some(prev.0 + (t - prev.0) * prev.1 / (prev.1 - v));
+        }
+        prev = (t, v);
+    }
+    None
+}
+
+fn shown(t: Option<f64>) -> String {
+    t.map_or("-".into(), |t| format!("{t:+.5}"))
+}
+
+fn run(args: &[String]) -> Result<(), String> {
+    let [file, c, n, half, overrides @ ..] = args else {
+        return Err("usage: line_probe POINTS.ply CX,CY,CZ NX,NY,NZ HALF [KEY=VALUE ...]".into());
+    };
+    let (c, n) = (vector(c)?, vector(n)?.normalize());
+    let half: f64 = half.parse().map_err(|e| format!("HALF {half}: {e}"))?;
+    let mut params = FitParams::default();
+    for kv in overrides {
+        let (key, value) = kv
+            .split_once('=')
+            .ok_or(format!("{kv}: expected KEY=VALUE"))?;
+        let v: f64 = value.parse().map_err(|e| format!("{kv}: {e}"))?;
+        match key {
+            "k" => params.k = v as usize,
+            "weight_width" => params.weight_width = v,
+            "normal_weight" => params.normal_weight = v,
+            "regularization" => params.regularization = v,
+            "centre_spacing" => params.centre_spacing = v,
+            "offset" => params.offset = v,
+            _ => return Err(format!("{key}: not a key this probe knows")),
+        }
+    }
+    let reader = std::fs::File::open(file).map_err(|e| format!("{file}: {e}"))?;
+    let loaded = io::read(reader, Format::Ply).map_err(|e| format!("{file}: {e}"))?;
+    let rec = reconstruct(
+        &loaded.points,
+        &params,
+        NormalPolicy::Keep,
+        &mut IgnoreStages,
+        &NoProgress,
+    )
+    .map_err(|e| e.to_string())?;
+    let field = &rec.field;
+    println!(
+        "blended field: zero at {} (trusted at C: {})",
+        shown(zero_crossing(|t| field.value(c + n * t), half)),
+        field.is_trusted(c)
+    );
+    let size = params.size;
+    let mut rows = Vec::new();
+    for s in 0..field.len() {
+        let frame = field.slot_frame(s);
+        let r = field.slot_support(s);
+        let reach = (c - frame.center).length() / r;
+        if reach >= 1.0 {
+            continue;
+        }
+        let coeffs = field.slot_coefficients(s);
+        let own = zero_crossing(
+            |t| {
+                let [u, v, w] = frame.to_local(c + n * t);
+                eval3_value(size, coeffs, u, v, w)
+            },
+            half,
+        );
+        let normal = frame.axes[2];
+        let plane = (frame.center - c).dot(normal) / n.dot(normal);
+        rows.push((reach, own, plane, frame.center - c, normal, r));
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    println!(
+        "{} local fields cover C, nearest (distance / support radius) first:",
+        rows.len()
+    );
+    for (reach, own, plane, rel, normal, r) in rows {
+        println!(
+            "  reach {reach:.2}  zero {:>9}  own plane {:+.5}  centre C{:+.4},{:+.4},{:+.4}  \
+             normal {:+.2},{:+.2},{:+.2}  support {r:.4}",
+            shown(own),
+            plane,
+            rel.x,
+            rel.y,
+            rel.z,
+            normal.x,
+            normal.y,
+            normal.z,
+        );
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("line_probe: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
