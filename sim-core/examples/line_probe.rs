@@ -3,7 +3,7 @@
 //! blended field crosses zero and where each local field covering `C` would put it on its own,
 //! beside that field's centre, normal, support radius and its own tangent plane's crossing (the
 //! plane its fit is regularised toward). A local field whose zero lies far from the others' and
-//! from its own plane is bending the surface there.
+//! from its own plane is bending the surface there. Gap fields are marked.
 //!
 //! ```text
 //! cargo run --release -p sim-core --example line_probe -- POINTS.ply CX,CY,CZ NX,NY,NZ HALF [KEY=VALUE ...]
@@ -11,8 +11,8 @@
 //!
 //! `HALF` is the half-length of the searched segment (world units). Keys override the library's
 //! [`FitParams`]: `k`, `weight_width`, `normal_weight`, `regularization`, `centre_spacing`,
-//! `offset`. `workstation fit`'s defaults are `normal_weight=0.25 regularization=3e-4
-//! centre_spacing=0.35`. Crossings are offsets along `N` from `C`; `-` means none in the segment.
+//! `offset`, `gap_fields`. `workstation fit`'s defaults are `normal_weight=0.25
+//! regularization=3e-4 centre_spacing=0.35 gap_fields=0.12`. Crossings are offsets along `N` from `C`; `-` means none in the segment.
 use std::process::ExitCode;
 
 use glam::DVec3;
@@ -71,6 +71,7 @@ fn run(args: &[String]) -> Result<(), String> {
             "regularization" => params.regularization = v,
             "centre_spacing" => params.centre_spacing = v,
             "offset" => params.offset = v,
+            "gap_fields" => params.gap_fields = v,
             _ => return Err(format!("{key}: not a key this probe knows")),
         }
     }
@@ -93,6 +94,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let size = params.size;
     let mut rows = Vec::new();
     for s in 0..field.len() {
+        let gap = s >= field.len() - field.gap_field_count();
         let frame = field.slot_frame(s);
         let r = field.slot_support(s);
         let reach = (c - frame.center).length() / r;
@@ -109,17 +111,17 @@ fn run(args: &[String]) -> Result<(), String> {
         );
         let normal = frame.axes[2];
         let plane = (frame.center - c).dot(normal) / n.dot(normal);
-        rows.push((reach, own, plane, frame.center - c, normal, r));
+        rows.push((reach, own, plane, frame.center - c, normal, r, gap));
     }
     rows.sort_by(|a, b| a.0.total_cmp(&b.0));
     println!(
         "{} local fields cover C, nearest (distance / support radius) first:",
         rows.len()
     );
-    for (reach, own, plane, rel, normal, r) in rows {
+    for (reach, own, plane, rel, normal, r, gap) in rows {
         println!(
             "  reach {reach:.2}  zero {:>9}  own plane {:+.5}  centre C{:+.4},{:+.4},{:+.4}  \
-             normal {:+.2},{:+.2},{:+.2}  support {r:.4}",
+             normal {:+.2},{:+.2},{:+.2}  support {r:.4}{}",
             shown(own),
             plane,
             rel.x,
@@ -128,6 +130,7 @@ fn run(args: &[String]) -> Result<(), String> {
             normal.x,
             normal.y,
             normal.z,
+            if gap { "  (gap field)" } else { "" },
         );
     }
     Ok(())

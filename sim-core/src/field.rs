@@ -16,6 +16,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::bspline::{MAX_SIZE, RefitOperator, eval3, eval3_value};
+use crate::gaps::GapSite;
 use crate::knn::{KnnGraph, PointIndex};
 use crate::local_fit::{FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local};
 use crate::outliers::flag_outliers;
@@ -96,6 +97,8 @@ struct FieldData {
     orphans: Vec<u32>,
     /// Slots the fit made; those from here on were added by [`GlobalField::relocate_point`].
     fitted: usize,
+    /// Gap fields ([`crate::gaps`]) fill slots `first_gap..fitted`.
+    first_gap: usize,
     grid: SupportGrid,
     /// Every inlier point as a trust witness, where the local fields are thinned
     /// ([`FitParams::centre_spacing`]); `None`: the fields' own points are the witnesses.
@@ -183,12 +186,26 @@ impl GlobalField {
                     progress.advance(fs.len());
                 },
             );
+        // Gap fields follow the points' fields (a static surface's only: thinned).
+        let sites = if params.gap_fields > 0.0 && params.centre_spacing > 0.0 {
+            let index = PointIndex::new(points);
+            let sites = crate::gaps::plan(points, normals, knn, &outlier, &order, &index, params);
+            for (frame, c) in
+                fit_gap_fields(&sites, points, normals, &outlier, &index, params, typical)
+            {
+                frames.push(frame);
+                coeffs.extend_from_slice(&c);
+            }
+            sites
+        } else {
+            Vec::new()
+        };
         // Everything below is in slot order.
         let support: Vec<f64> = frames
             .iter()
-            .zip(&order)
-            .map(|(f, &i)| {
-                if outlier[i as usize] {
+            .enumerate()
+            .map(|(s, f)| {
+                if order.get(s).is_some_and(|&i| outlier[i as usize]) {
                     0.0
                 } else {
                     params.support * f.half
@@ -204,9 +221,10 @@ impl GlobalField {
         let inlier_points: Vec<DVec3> =
             inliers.iter().map(|&s| frames[s as usize].center).collect();
         let centers: Vec<DVec3> = frames.iter().map(|f| f.center).collect();
-        let mut sup_sorted: Vec<f64> = support.iter().copied().filter(|r| *r > 0.0).collect();
+        let mut sup_sorted: Vec<f64> = support[..n].iter().copied().filter(|r| *r > 0.0).collect();
         sup_sorted.sort_by(f64::total_cmp);
         let scale = sup_sorted[sup_sorted.len() / 2];
+
         let grid = SupportGrid::new(&centers, &support, 2.0 * scale);
         let witnesses = (params.centre_spacing > 0.0).then(|| {
             let support: Vec<f64> = (0..points.len())
@@ -233,12 +251,17 @@ impl GlobalField {
                 frames,
                 support,
                 coeffs,
-                normals: order.iter().map(|&i| normals[i as usize]).collect(),
+                normals: order
+                    .iter()
+                    .map(|&i| normals[i as usize])
+                    .chain(sites.iter().map(|g| g.normal))
+                    .collect(),
                 nearest: PointIndex::new(&inlier_points),
                 nearest_ids: inliers,
                 slot,
                 orphans: Vec::new(),
-                fitted: n,
+                fitted: n + sites.len(),
+                first_gap: n,
                 grid,
                 witnesses,
                 refit: Arc::new(refit),
@@ -496,8 +519,8 @@ impl GlobalField {
     }
 
     /// Visit every local field whose support contains `x`, with the supports from a list
-    /// gathered for a box holding `x`: its point, unit normal, blending weight at `x` and
-    /// support radius.
+    /// gathered for a box holding `x`: its point (a gap field's centre), unit normal, blending
+    /// weight at `x` and support radius.
     pub fn for_each_support_near(
         &self,
         x: DVec3,
@@ -610,22 +633,29 @@ impl GlobalField {
             .map(move |s| d.frames[s].center)
     }
 
-    /// The support ball of every inlier: (centre, support radius), relocated fields
-    /// ([`GlobalField::relocate_point`]) included.
+    /// The support ball of every inlier: (centre, support radius), gap fields and relocated
+    /// fields ([`GlobalField::relocate_point`]) included.
     pub fn support_balls(&self) -> impl Iterator<Item = (DVec3, f64)> + '_ {
         let d = &*self.inner;
         d.nearest_ids
             .iter()
             .map(|&s| s as usize)
-            .chain(d.fitted..d.frames.len())
+            .chain(d.first_gap..d.frames.len())
             .map(move |s| (d.frames[s].center, d.support[s]))
     }
 
     /// Number of local fields the fit made: one per point (outliers' empty slots included), or
     /// one per centre of a thinned field ([`FitParams::centre_spacing`]), so fewer than the
-    /// points there; relocated fields are not counted twice.
+    /// points there, plus its gap fields ([`GlobalField::gap_field_count`]); relocated fields
+    /// are not counted twice.
     pub fn len(&self) -> usize {
         self.inner.fitted
+    }
+
+    /// Number of gap fields ([`FitParams::gap_fields`]): local fields centred in the gaps
+    /// between the points, not at a point (their slots follow the points' fields).
+    pub fn gap_field_count(&self) -> usize {
+        self.inner.fitted - self.inner.first_gap
     }
 
     /// Always `false`: a field has at least one point.
@@ -922,6 +952,46 @@ fn thinned_centres(knn: &KnnGraph, outlier: &[bool], spacing: f64) -> Vec<u32> {
     centres
 }
 
+/// Fit a local field at each gap site to the site's own `k` nearest inlier points, on all
+/// cores: (frame, coefficients) per site, in order.
+fn fit_gap_fields(
+    sites: &[GapSite],
+    points: &[DVec3],
+    normals: &[DVec3],
+    outlier: &[bool],
+    index: &PointIndex,
+    params: &FitParams,
+    typical: f64,
+) -> Vec<(LocalFrame, Vec<f64>)> {
+    let c = params.size.pow(3);
+    sites
+        .par_iter()
+        .map_init(
+            || (FitScratch::new(params.size), Vec::new(), Vec::new()),
+            |(scratch, hp, hn), site| {
+                hp.clear();
+                hn.clear();
+                for (j, _) in index.nearest_k(site.centre, params.k) {
+                    if !outlier[j] {
+                        hp.push(points[j]);
+                        hn.push(normals[j]);
+                    }
+                }
+                let hood = Neighbourhood {
+                    center: site.centre,
+                    normal: site.normal,
+                    points: hp,
+                    normals: hn,
+                    fallback_radius: typical,
+                };
+                let mut coeffs = vec![0.0; c];
+                let frame = fit_local(&hood, params, scratch, &mut coeffs);
+                (frame, coeffs)
+            },
+        )
+        .collect()
+}
+
 /// Point indices sorted along a Morton (Z-order) curve over the bounding box.
 fn morton_order(points: &[DVec3]) -> Vec<u32> {
     let (lo, hi) = crate::pointset::bounds(points).unwrap_or((DVec3::ZERO, DVec3::ONE));
@@ -987,6 +1057,7 @@ impl Clone for FieldData {
             slot: self.slot.clone(),
             orphans: self.orphans.clone(),
             fitted: self.fitted,
+            first_gap: self.first_gap,
             grid: self.grid.clone(),
             witnesses: self.witnesses.clone(),
             refit: Arc::clone(&self.refit),
@@ -1040,8 +1111,9 @@ fn validate(
         p.trust_weight >= 0.0 && p.trust_weight.is_finite(),
         p.trust_plane > 0.0,
         (0.0..=1.0).contains(&p.centre_spacing),
+        (0.0..1.0).contains(&p.gap_fields),
     ];
-    const WHAT: [&str; 12] = [
+    const WHAT: [&str; 13] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -1054,6 +1126,7 @@ fn validate(
         "trust_weight must be finite and ≥ 0",
         "trust_plane must be positive (infinite: no plane test)",
         "centre_spacing must be in [0, 1]",
+        "gap_fields must be in [0, 1)",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),

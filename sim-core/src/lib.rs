@@ -6,7 +6,8 @@
 //! The point-set surface (DESIGN §2), stage by stage:
 //! [`knn::PointIndex`] and [`knn::KnnGraph`] → [`normals`] (PCA, MST orientation) →
 //! [`field::GlobalField::build`] (per-point [`local_fit`] B-spline fields, blended; for a
-//! static surface optionally at a thinned subset of the points, `FitParams::centre_spacing`) →
+//! static surface optionally at a thinned subset of the points, `FitParams::centre_spacing`,
+//! plus [`gaps`] fields centred in the gaps one-sided neighbourhoods face) →
 //! queries `value`, `value_and_gradient`, `project_to_zero_set`, and `is_trusted` (the zero set
 //! is only evidence of a surface near the points: meshing, projection, region grids and CSG
 //! classification all ignore it elsewhere); [`mesh`] extracts the trusted zero set, evaluating
@@ -33,6 +34,7 @@ pub mod csg;
 pub mod dynamics;
 pub mod field;
 pub mod follow;
+pub mod gaps;
 pub mod grid;
 pub mod haptic;
 pub mod io;

@@ -75,6 +75,15 @@ pub struct FitParams {
     /// point (the papers' model, which sculpting needs: each point carries its own field).
     #[serde(default)]
     pub centre_spacing: f64,
+    /// Gap fields, for a thinned (static) field only ([`FitParams::centre_spacing`] > 0; with
+    /// a field at every point this has no effect): where a centre's neighbours lean to one
+    /// side (their mean offset along its tangent plane is at least this fraction of its
+    /// neighbourhood radius) and a point lies across the gap on the other side, one more local
+    /// field is fitted at their midpoint, if no point lies within 0.4 radius of it, to that
+    /// place's own `k` nearest points (see [`crate::gaps`]). The points' own fits would reach
+    /// the gap from one side only, carrying that side's curvature across it. 0: none.
+    #[serde(default)]
+    pub gap_fields: f64,
 }
 
 fn default_normal_weight() -> f64 {
@@ -114,6 +123,7 @@ impl Default for FitParams {
             trust_plane: 0.2,
             trust_facing: true,
             centre_spacing: 0.0,
+            gap_fields: 0.0,
         }
     }
 }

@@ -314,6 +314,18 @@ fn bad_parameters_are_errors() {
             centre_spacing: f64::NAN,
             ..FitParams::default()
         },
+        FitParams {
+            gap_fields: -0.1,
+            ..FitParams::default()
+        },
+        FitParams {
+            gap_fields: 1.0,
+            ..FitParams::default()
+        },
+        FitParams {
+            gap_fields: f64::NAN,
+            ..FitParams::default()
+        },
     ] {
         let r = reconstruct(
             &pts,

@@ -3,6 +3,7 @@
 
 mod common;
 mod field_api;
+mod gaps;
 mod hard_cases;
 mod io_formats;
 mod meshing;

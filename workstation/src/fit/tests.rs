@@ -35,10 +35,16 @@ fn generated_sphere_reports_the_checked_json_fields() {
         "projected_rms_error",
         "projected_max_error",
         "surface",
+        "local_fields",
+        "gap_fields",
     ] {
         assert!(json.get(key).is_some_and(|v| !v.is_null()), "missing {key}");
     }
     assert_eq!(report.points, 3000);
+    assert!(
+        report.gap_fields < report.local_fields,
+        "gap fields are among the fields"
+    );
     assert_eq!(report.error_samples, 10_000);
     assert_eq!(
         report.reference_size,

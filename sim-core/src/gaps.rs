@@ -1,0 +1,131 @@
+//! Gap fields: extra local fields for a static surface where the points leave a gap that the
+//! points' own fields would only reach from one side ([`FitParams::gap_fields`]).
+//!
+//! A point whose neighbours all lie to one side of it (a row of points along a rounded edge,
+//! beside a face sampled only at its far-apart corners) fits a quadric that follows that side
+//! and carries its curvature across the empty half of its domain. Where two such fits meet over
+//! a gap, the blend sags between them (the rocker arm's faces sagged 4.6 mm, see
+//! docs/BENCHMARKS.md). A gap field is centred in the gap itself, at the midpoint between such a
+//! point and the nearest point across the gap, and fitted to *its* own `k` nearest points:
+//! those on both sides, as a query-centred fit (APSS, MLS) would use.
+//!
+//! Contract: [`plan`] is deterministic (it visits the centres in the order given and keeps a
+//! site only where no point and no site already kept lies within [`SITE_CLEARANCE`] of its
+//! point's radius, so a site sits in a real gap and a gap gets one field per clearance). It
+//! runs at build time and allocates; its inputs are validated finite (the field's build). A site lies on a chord between two points, so a little
+//! off a curved surface; its field is fitted in a frame there like any other.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::knn::{KnnGraph, PointIndex};
+use crate::local_fit::FitParams;
+
+/// A site is kept only if no point and no site kept before it lies within this many of its
+/// point's neighbourhood radii.
+pub const SITE_CLEARANCE: f64 = 0.4;
+
+/// How far across a gap a point looks for its far side, in its neighbourhood radii.
+pub const REACH: f64 = 2.5;
+
+/// The far side lies within acos(CONE) (45°) of the direction away from the point's
+/// neighbours.
+pub const CONE: f64 = 0.7;
+
+/// The point across must face within acos(SAME_SHEET) (60°) of the point's own normal: the
+/// other side of a gap in one sheet, not the far sheet of a thin part or a face across a crease.
+pub const SAME_SHEET: f64 = 0.5;
+
+/// Where a gap field goes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GapSite {
+    /// Centre of the field's domain (in the gap).
+    pub centre: DVec3,
+    /// Frame normal: the normal of the point it was made from.
+    pub normal: DVec3,
+}
+
+/// The gap sites of the lopsided points among `centres` (point indices).
+///
+/// A point is lopsided when its neighbours' mean offset, projected on its tangent plane, is
+/// at least `params.gap_fields` × its neighbourhood radius `r`. It proposes the midpoint
+/// between itself and the nearest point across the gap (within [`REACH`] `r`, in a cone of
+/// half-angle acos [`CONE`] about the direction away from its neighbours). No proposal from:
+/// - an outlier;
+/// - a point with a neighbour facing more than 90° from it: one on a part thinner than its
+///   neighbourhood or beside a sharp crease (sites there, between sheets or faces, split a
+///   thin part of the benchmark's cow into two pieces);
+/// - a point with nothing across (an open rim), or whose point across faces another way
+///   ([`SAME_SHEET`]);
+/// - a midpoint within [`SITE_CLEARANCE`] `r` of a point (no gap).
+pub fn plan(
+    points: &[DVec3],
+    normals: &[DVec3],
+    knn: &KnnGraph,
+    outlier: &[bool],
+    centres: &[u32],
+    index: &PointIndex,
+    params: &FitParams,
+) -> Vec<GapSite> {
+    if params.gap_fields <= 0.0 {
+        return Vec::new();
+    }
+    // Proposals in parallel (each needs only its own neighbourhood and the point index).
+    let proposed: Vec<(GapSite, f64)> = centres
+        .par_iter()
+        .filter_map(|&i| {
+            let (p, n, r) = (
+                points[i as usize],
+                normals[i as usize],
+                knn.radius(i as usize),
+            );
+            if outlier[i as usize] || r <= 0.0 {
+                return None;
+            }
+            let hood = knn.neighbours(i as usize);
+            let mut mean = DVec3::ZERO;
+            for &j in hood {
+                if normals[j as usize].dot(n) < 0.0 {
+                    return None; // a thin part's other sheet, or a crease sharper than 90°
+                }
+                mean += points[j as usize] - p;
+            }
+            mean /= hood.len() as f64;
+            let along = mean - n * mean.dot(n);
+            let lean = along.length();
+            if lean < params.gap_fields * r {
+                return None;
+            }
+            let away = -along / lean;
+            let (across, _) = index
+                .within(p, REACH * r)
+                .into_iter()
+                .filter(|&(j, d)| d > 0.0 && !outlier[j] && (points[j] - p).dot(away) > CONE * d)
+                .min_by(|a, b| a.1.total_cmp(&b.1))?;
+            if normals[across].dot(n) < SAME_SHEET {
+                return None; // across a thin part or a crease: not a gap in one sheet
+            }
+            let centre = (p + points[across]) * 0.5;
+            let site = GapSite { centre, normal: n };
+            (index.nearest(centre).1 >= SITE_CLEARANCE * r).then_some((site, r))
+        })
+        .collect();
+    if proposed.is_empty() {
+        return Vec::new();
+    }
+    // One site per gap: in order, drop a site with a kept one within its clearance.
+    let centres: Vec<DVec3> = proposed.iter().map(|(s, _)| s.centre).collect();
+    let site_index = PointIndex::new(&centres);
+    let mut kept = vec![false; proposed.len()];
+    for (a, (site, r)) in proposed.iter().enumerate() {
+        kept[a] = !site_index
+            .within(site.centre, SITE_CLEARANCE * r)
+            .iter()
+            .any(|&(b, _)| b < a && kept[b]);
+    }
+    proposed
+        .into_iter()
+        .zip(kept)
+        .filter_map(|((site, _), keep)| keep.then_some(site))
+        .collect()
+}
