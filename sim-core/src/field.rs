@@ -221,10 +221,11 @@ impl GlobalField {
         let inlier_points: Vec<DVec3> =
             inliers.iter().map(|&s| frames[s as usize].center).collect();
         let centers: Vec<DVec3> = frames.iter().map(|f| f.center).collect();
+        // The length scale is the points' fields' (gap fields, fitted where points are sparse,
+        // have wider supports and would move it, and with it the padding of mesh grids).
         let mut sup_sorted: Vec<f64> = support[..n].iter().copied().filter(|r| *r > 0.0).collect();
         sup_sorted.sort_by(f64::total_cmp);
         let scale = sup_sorted[sup_sorted.len() / 2];
-
         let grid = SupportGrid::new(&centers, &support, 2.0 * scale);
         let witnesses = (params.centre_spacing > 0.0).then(|| {
             let support: Vec<f64> = (0..points.len())

@@ -12,8 +12,9 @@
 //! Contract: [`plan`] is deterministic (it visits the centres in the order given and keeps a
 //! site only where no point and no site already kept lies within [`SITE_CLEARANCE`] of its
 //! point's radius, so a site sits in a real gap and a gap gets one field per clearance). It
-//! runs at build time and allocates; its inputs are validated finite (the field's build). A site lies on a chord between two points, so a little
-//! off a curved surface; its field is fitted in a frame there like any other.
+//! runs at build time and allocates; its inputs are validated finite (the field's build). A
+//! site lies on a chord between two points, so a little off a curved surface; its field is
+//! fitted in a frame there like any other.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -128,4 +129,59 @@ pub fn plan(
         .zip(kept)
         .filter_map(|((site, _), keep)| keep.then_some(site))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A square grid on z = 0 with a slot four spacings wide cut out of its middle.
+    fn slotted_plane() -> (Vec<DVec3>, Vec<DVec3>) {
+        let points: Vec<DVec3> = (0..24)
+            .flat_map(|i| (0..24).map(move |j| DVec3::new(i as f64, j as f64, 0.0)))
+            .filter(|p| (p.x - 11.5).abs() > 2.0)
+            .collect();
+        let normals = vec![DVec3::Z; points.len()];
+        (points, normals)
+    }
+
+    fn sites(points: &[DVec3], normals: &[DVec3]) -> Vec<GapSite> {
+        let index = PointIndex::new(points);
+        let knn = KnnGraph::build(points, &index, 20);
+        let params = FitParams {
+            gap_fields: 0.12,
+            ..FitParams::default()
+        };
+        let all: Vec<u32> = (0..points.len() as u32).collect();
+        let outlier = vec![false; points.len()];
+        plan(points, normals, &knn, &outlier, &all, &index, &params)
+    }
+
+    #[test]
+    fn sites_fill_the_slot_and_not_the_open_rim() {
+        let (points, normals) = slotted_plane();
+        let found = sites(&points, &normals);
+        assert!(!found.is_empty());
+        for site in &found {
+            // In the slot (the outer rim, with nothing across, proposes nothing)…
+            assert!((site.centre.x - 11.5).abs() < 2.0, "{site:?}");
+            assert!(site.centre.z.abs() < 1e-12 && site.normal == DVec3::Z);
+            // …and clear of every point.
+            let nearest = points
+                .iter()
+                .map(|p| (*p - site.centre).length())
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest > 1.0, "{site:?} {nearest}");
+        }
+        assert_eq!(found, sites(&points, &normals), "deterministic");
+    }
+
+    #[test]
+    fn a_plane_without_gaps_gets_no_sites() {
+        let points: Vec<DVec3> = (0..24)
+            .flat_map(|i| (0..24).map(move |j| DVec3::new(i as f64, j as f64, 0.0)))
+            .collect();
+        let normals = vec![DVec3::Z; points.len()];
+        assert!(sites(&points, &normals).is_empty());
+    }
 }
