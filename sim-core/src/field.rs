@@ -2,7 +2,8 @@
 //! supported weights, `f(x) = Σ sᵢ(x) φᵢ(x) / Σ φᵢ(x)`, with the nearest point's signed distance
 //! where no support covers `x` (a field at every point, or at a thinned subset of them for a
 //! static surface, [`FitParams::centre_spacing`], whose trust tests still consult every
-//! point); where the covering fields come from the two opposite sides of
+//! point, plus fields centred in the gaps between them, [`FitParams::gap_fields`]); where the
+//! covering fields come from the two opposite sides of
 //! a thin solid or gap, the sides are blended apart and combined by max / min (see
 //! [`GlobalField::value_and_gradient`]). Sign: `f < 0` inside, `f > 0` outside, `∇f` outward.
 //!
