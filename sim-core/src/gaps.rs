@@ -135,14 +135,19 @@ pub fn plan(
 mod tests {
     use super::*;
 
-    /// A square grid on z = 0 with a slot four spacings wide cut out of its middle.
-    fn slotted_plane() -> (Vec<DVec3>, Vec<DVec3>) {
+    /// The nodes of a 24 × 24 unit grid on z = 0 that `keep` keeps, with normals +z.
+    fn plane(keep: impl Fn(DVec3) -> bool) -> (Vec<DVec3>, Vec<DVec3>) {
         let points: Vec<DVec3> = (0..24)
             .flat_map(|i| (0..24).map(move |j| DVec3::new(i as f64, j as f64, 0.0)))
-            .filter(|p| (p.x - 11.5).abs() > 2.0)
+            .filter(|&p| keep(p))
             .collect();
         let normals = vec![DVec3::Z; points.len()];
         (points, normals)
+    }
+
+    /// The grid with a slot four spacings wide cut out of its middle.
+    fn slotted_plane() -> (Vec<DVec3>, Vec<DVec3>) {
+        plane(|p| (p.x - 11.5).abs() > 2.0)
     }
 
     fn sites(points: &[DVec3], normals: &[DVec3]) -> Vec<GapSite> {
@@ -178,10 +183,7 @@ mod tests {
 
     #[test]
     fn a_plane_without_gaps_gets_no_sites() {
-        let points: Vec<DVec3> = (0..24)
-            .flat_map(|i| (0..24).map(move |j| DVec3::new(i as f64, j as f64, 0.0)))
-            .collect();
-        let normals = vec![DVec3::Z; points.len()];
+        let (points, normals) = plane(|_| true);
         assert!(sites(&points, &normals).is_empty());
     }
 }
