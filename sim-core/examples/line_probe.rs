@@ -33,19 +33,25 @@ fn vector(s: &str) -> Result<DVec3, String> {
     }
 }
 
-/// First sign change of `f` on `[-half, half]` (400 steps, linear interpolation).
+/// The sign change of `f` on `[-half, half]` nearest `0` (400 steps, linear interpolation):
+/// a local field can have a second zero sheet within the segment, and the one through `C`'s
+/// neighbourhood is the one that bends the blend there.
 fn zero_crossing(f: impl Fn(f64) -> f64, half: f64) -> Option<f64> {
     const STEPS: usize = 400;
     let mut prev = (-half, f(-half));
+    let mut nearest: Option<f64> = None;
     for s in 1..=STEPS {
         let t = -half + 2.0 * half * s as f64 / STEPS as f64;
         let v = f(t);
         if (v < 0.0) != (prev.1 < 0.0) {
-            return Some(prev.0 + (t - prev.0) * prev.1 / (prev.1 - v));
+            let z = prev.0 + (t - prev.0) * prev.1 / (prev.1 - v);
+            if nearest.is_none_or(|n| z.abs() < n.abs()) {
+                nearest = Some(z);
+            }
         }
         prev = (t, v);
     }
-    None
+    nearest
 }
 
 fn shown(t: Option<f64>) -> String {
