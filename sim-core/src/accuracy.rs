@@ -6,6 +6,9 @@
 //!   the fitted zero set with Newton, measure each projected point's distance to the reference.
 //!   It sees how well the field fits where the data is, but never a zero-set piece away from it.
 //!
+//! - [`SampledError::by_spacing`] breaks the first down by how far each sample lies from the
+//!   nearest input point, in the points' spacings (error at the data against between it).
+//!
 //! Contract: deterministic for a seed; distances are exact for analytic shapes and exact
 //! point-to-triangle distances for meshes.
 
@@ -262,24 +265,250 @@ pub fn mesh_error(
     samples: usize,
     seed: u64,
 ) -> Option<TwoSidedError> {
-    if mesh.area().is_nan() || mesh.area() <= 0.0 {
+    Some(SampledError::new(mesh, reference, samples, seed)?.summary())
+}
+
+/// The samples behind [`mesh_error`], each with its distance: to summarise ([`Self::summary`],
+/// the same figures as [`mesh_error`]) and to break down by where they lie
+/// ([`Self::by_spacing`]).
+#[derive(Debug, Clone)]
+pub struct SampledError {
+    /// Samples on the output and their distances to the reference.
+    pub on_output: Vec<(DVec3, f64)>,
+    /// Samples on the reference and their distances to the output.
+    pub on_reference: Vec<(DVec3, f64)>,
+    /// See [`Reference::size`].
+    pub reference_size: f64,
+}
+
+impl SampledError {
+    /// Draw and measure the samples of [`mesh_error`] (the same samples for a seed).
+    pub fn new(
+        mesh: &TriMesh,
+        reference: &dyn Reference,
+        samples: usize,
+        seed: u64,
+    ) -> Option<Self> {
+        if mesh.area().is_nan() || mesh.area() <= 0.0 {
+            return None;
+        }
+        let output = MeshReference::new(mesh.clone())?;
+        let on_output = output
+            .sample(samples, seed ^ 0x0a7e_5a3f)
+            .into_par_iter()
+            .map(|(p, _)| (p, reference.distance(p)))
+            .collect();
+        let on_reference = reference
+            .sample(samples, seed)
+            .into_par_iter()
+            .map(|(p, _)| (p, output.distance(p)))
+            .collect();
+        Some(Self {
+            on_output,
+            on_reference,
+            reference_size: reference.size(),
+        })
+    }
+
+    /// RMS, 99th percentile and max each way, in metres.
+    pub fn summary(&self) -> TwoSidedError {
+        let distances = |s: &[(DVec3, f64)]| Distances::of(s.iter().map(|(_, d)| *d).collect());
+        TwoSidedError {
+            samples: self.on_output.len(),
+            to_reference: distances(&self.on_output),
+            coverage: distances(&self.on_reference),
+            reference_size: self.reference_size,
+        }
+    }
+
+    /// The error broken down by how far each sample lies from the nearest of `points` (the
+    /// input the mesh was made from), in units of the points' median nearest-neighbour
+    /// spacing: where a method's error grows between the points, not at them, it is the
+    /// interpolant, not the fit to the data. `None` for fewer than two distinct points.
+    pub fn by_spacing(&self, points: &[DVec3]) -> Option<ErrorBySpacing> {
+        let spacing = median_spacing(points)?;
+        let index = PointIndex::new(points);
+        let bands = |samples: &[(DVec3, f64)]| {
+            let gaps: Vec<f64> = samples
+                .par_iter()
+                .map(|(p, _)| index.nearest(*p).1 / spacing)
+                .collect();
+            let total: f64 = samples.iter().map(|(_, d)| d * d).sum();
+            SPACING_BANDS
+                .windows(2)
+                .map(|edge| {
+                    let (mut count, mut sum) = (0usize, 0.0);
+                    for (g, (_, d)) in gaps.iter().zip(samples) {
+                        if *g >= edge[0] && *g < edge[1] {
+                            count += 1;
+                            sum += d * d;
+                        }
+                    }
+                    BandError {
+                        samples: count as f64 / samples.len().max(1) as f64,
+                        rms: if count > 0 {
+                            (sum / count as f64).sqrt() / self.reference_size
+                        } else {
+                            0.0
+                        },
+                        squared: if total > 0.0 { sum / total } else { 0.0 },
+                    }
+                })
+                .collect::<Vec<_>>()
+        };
+        let (out, cov) = (bands(&self.on_output), bands(&self.on_reference));
+        Some(ErrorBySpacing {
+            spacing,
+            bands: SPACING_BANDS
+                .windows(2)
+                .zip(out.into_iter().zip(cov))
+                .map(|(edge, (to_reference, coverage))| SpacingBand {
+                    from: edge[0],
+                    to: edge[1].is_finite().then_some(edge[1]),
+                    to_reference,
+                    coverage,
+                })
+                .collect(),
+        })
+    }
+}
+
+/// Band edges of [`SampledError::by_spacing`], in median spacings from the nearest point.
+pub const SPACING_BANDS: [f64; 7] = [0.0, 0.5, 1.0, 1.5, 2.0, 3.0, f64::INFINITY];
+
+/// The median over `points` of the distance to the nearest other point at a positive distance
+/// (duplicates skipped); `None` when there is none.
+pub fn median_spacing(points: &[DVec3]) -> Option<f64> {
+    if points.len() < 2 {
         return None;
     }
-    let output = MeshReference::new(mesh.clone())?;
-    let on_output = output.sample(samples, seed ^ 0x0a7e_5a3f);
-    let to_reference: Vec<f64> = on_output
+    let index = PointIndex::new(points);
+    let mut nearest: Vec<f64> = points
         .par_iter()
-        .map(|(p, _)| reference.distance(*p))
+        .filter_map(|p| {
+            index
+                .nearest_k(*p, 8)
+                .into_iter()
+                .map(|(_, d)| d)
+                .find(|d| *d > 0.0)
+        })
         .collect();
-    let on_reference = reference.sample(samples, seed);
-    let coverage: Vec<f64> = on_reference
-        .par_iter()
-        .map(|(p, _)| output.distance(*p))
-        .collect();
-    Some(TwoSidedError {
-        samples,
-        to_reference: Distances::of(to_reference),
-        coverage: Distances::of(coverage),
-        reference_size: reference.size(),
-    })
+    if nearest.is_empty() {
+        return None;
+    }
+    nearest.par_sort_unstable_by(f64::total_cmp);
+    Some(nearest[nearest.len() / 2])
+}
+
+/// [`SampledError::by_spacing`]'s result.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ErrorBySpacing {
+    /// The unit of the bands: the points' median nearest-neighbour spacing, metres.
+    pub spacing: f64,
+    /// One per band of [`SPACING_BANDS`].
+    pub bands: Vec<SpacingBand>,
+}
+
+/// The samples lying from `from` to `to` spacings from the nearest point, each way.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SpacingBand {
+    /// Lower edge, in spacings (inclusive).
+    pub from: f64,
+    /// Upper edge, in spacings (exclusive); `None` for the last, open band.
+    pub to: Option<f64>,
+    /// Samples on the output, distance to the reference.
+    pub to_reference: BandError,
+    /// Samples on the reference, distance to the output.
+    pub coverage: BandError,
+}
+
+/// One direction's samples in one band.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct BandError {
+    /// Share of that direction's samples in the band (0..=1).
+    pub samples: f64,
+    /// RMS of their distances, relative to the reference size (0 for an empty band).
+    pub rms: f64,
+    /// Share of that direction's summed squared distance in the band (0..=1).
+    pub squared: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Nodes of an `n × n` grid of spacing `s` on z = 0.
+    fn grid(n: usize, s: f64) -> Vec<DVec3> {
+        (0..n * n)
+            .map(|i| DVec3::new((i % n) as f64 * s, (i / n) as f64 * s, 0.0))
+            .collect()
+    }
+
+    /// Samples over the grid's inner cells (a 40 × 40 lattice per cell), each with the
+    /// distance `error(gap)` for its distance `gap` to the nearest node.
+    fn sampled(s: f64, error: impl Fn(f64) -> f64) -> SampledError {
+        let mut samples = Vec::new();
+        for cell in 0..(8 * 8) {
+            let origin = DVec3::new((2 + cell % 8) as f64 * s, (2 + cell / 8) as f64 * s, 0.0);
+            for k in 0..40 * 40 {
+                let p = origin
+                    + DVec3::new((k % 40) as f64 + 0.5, (k / 40) as f64 + 0.5, 0.0) * (s / 40.0);
+                let gap = (p / s - (p / s).round()).length() * s;
+                samples.push((p, error(gap)));
+            }
+        }
+        SampledError {
+            on_output: samples.clone(),
+            on_reference: samples,
+            reference_size: 1.0,
+        }
+    }
+
+    #[test]
+    fn median_spacing_skips_duplicates_and_needs_two_points() {
+        let mut points = grid(6, 0.25);
+        points.extend(grid(6, 0.25)); // every point twice
+        assert!((median_spacing(&points).unwrap() - 0.25).abs() < 1e-12);
+        assert_eq!(median_spacing(&[DVec3::ONE]), None);
+        assert_eq!(median_spacing(&[DVec3::ONE, DVec3::ONE]), None);
+    }
+
+    #[test]
+    fn bands_see_error_that_grows_between_the_points_and_error_that_does_not() {
+        let s = 0.1;
+        let points = grid(12, s);
+        // A sag between the points (zero at them) against a uniform offset.
+        let sag = sampled(s, |gap| 1e-3 * (gap / s).powi(2))
+            .by_spacing(&points)
+            .unwrap();
+        let offset = sampled(s, |_| 1e-3).by_spacing(&points).unwrap();
+        assert!((sag.spacing - s).abs() < 1e-12);
+        for by in [&sag, &offset] {
+            assert_eq!(by.bands.len(), SPACING_BANDS.len() - 1);
+            for side in [
+                |b: &SpacingBand| b.to_reference,
+                |b: &SpacingBand| b.coverage,
+            ] {
+                let samples: f64 = by.bands.iter().map(|b| side(b).samples).sum();
+                let squared: f64 = by.bands.iter().map(|b| side(b).squared).sum();
+                assert!((samples - 1.0).abs() < 1e-12 && (squared - 1.0).abs() < 1e-12);
+            }
+        }
+        // On a grid every sample lies within √2/2 spacing of a node: two bands hold them.
+        let (near, mid) = (sag.bands[0].to_reference, sag.bands[1].to_reference);
+        assert!((near.samples + mid.samples - 1.0).abs() < 1e-12, "{sag:?}");
+        assert!(near.samples > 0.7 && mid.samples > 0.1, "{sag:?}");
+        assert!(sag.bands[2..].iter().all(|b| b.to_reference.rms == 0.0));
+        // The sag's RMS grows from the near band to the far one; the offset's does not.
+        assert!(mid.rms > 2.0 * near.rms, "{sag:?}");
+        let (a, b) = (offset.bands[0].coverage.rms, offset.bands[1].coverage.rms);
+        assert!(
+            (a - 1e-3).abs() < 1e-12 && (b - 1e-3).abs() < 1e-12,
+            "{offset:?}"
+        );
+        // The far band's share of the squared error outweighs its share of samples.
+        assert!(mid.squared > mid.samples, "{sag:?}");
+        assert_eq!(sag.bands[5].to, None);
+        assert_eq!(sag.bands[0].to, Some(0.5));
+    }
 }

@@ -21,7 +21,8 @@ use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sim_core::accuracy::{
-    Distances, MeshReference, Reference, TwoSidedError, mesh_error, zero_set_error,
+    Distances, ErrorBySpacing, MeshReference, Reference, SampledError, TwoSidedError, mesh_error,
+    zero_set_error,
 };
 use sim_core::io::{self, Format, Loaded};
 use sim_core::mesh::{MeshOptions, TriMesh, extract_zero_set_with};
@@ -683,6 +684,11 @@ pub struct MeshErrorArgs {
     /// Seed of the samples.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// The points the mesh was made from (.ply .obj .off .xyz .stl; their vertices): break the
+    /// error down by how far each sample lies from the nearest of them, in their median
+    /// spacing. Error that grows between the points, not at them, is the method's interpolant.
+    #[arg(long, value_name = "FILE")]
+    pub points: Option<PathBuf>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -709,6 +715,9 @@ pub struct MeshErrorReport {
     pub to_reference: Distances,
     /// Reference → mesh (coverage), relative.
     pub coverage: Distances,
+    /// With `--points`: both directions by distance from the nearest point.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub by_spacing: Option<ErrorBySpacing>,
 }
 
 /// Largest `--samples` of `mesh-error` (and `--surface-samples` and `--error-samples` of `fit`):
@@ -737,13 +746,28 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
             Box::new(MeshReference::new(truth).context("reference mesh has no triangles")?)
         }
     };
+    let points = match &args.points {
+        Some(path) => Some(read_file(path)?.points.positions),
+        None => None,
+    };
     let seed = args.seed ^ ERROR_SEED_SALT; // as `fit` salts its own: same seed, same samples
-    let e = mesh_error(&mesh, reference.as_ref(), args.samples, seed).with_context(|| {
-        format!(
-            "{}: the mesh has no triangle of positive area",
-            args.mesh.display()
-        )
-    })?;
+    let sampled =
+        SampledError::new(&mesh, reference.as_ref(), args.samples, seed).with_context(|| {
+            format!(
+                "{}: the mesh has no triangle of positive area",
+                args.mesh.display()
+            )
+        })?;
+    let by_spacing = match (&points, &args.points) {
+        (Some(points), Some(path)) => Some(sampled.by_spacing(points).with_context(|| {
+            format!(
+                "{}: needs two distinct points to measure a spacing",
+                path.display()
+            )
+        })?),
+        _ => None,
+    };
+    let e = sampled.summary();
     let (to_reference, coverage) = e.relative();
     Ok(MeshErrorReport {
         mesh: args.mesh.display().to_string(),
@@ -755,6 +779,7 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
         reference_pieces,
         to_reference,
         coverage,
+        by_spacing,
     })
 }
 
@@ -782,6 +807,33 @@ pub fn print_mesh_error(r: &MeshErrorReport, json: bool) -> anyhow::Result<()> {
         r.samples
     );
     println!("ref → mesh   {} (coverage)", d(&r.coverage));
+    if let Some(by) = &r.by_spacing {
+        println!(
+            "by distance from the nearest point, in its median spacing ({:.4e} m):",
+            by.spacing
+        );
+        println!("  spacings    mesh → ref                      ref → mesh (coverage)");
+        println!("              samples  RMS        sq. error    samples  RMS        sq. error");
+        for b in &by.bands {
+            let band = match b.to {
+                Some(to) => format!("{:.1}–{:.1}", b.from, to),
+                None => format!("≥ {:.1}", b.from),
+            };
+            let side = |e: &sim_core::accuracy::BandError| {
+                format!(
+                    "{:>5.1} %  {:.3e}  {:>5.1} %",
+                    100.0 * e.samples,
+                    e.rms,
+                    100.0 * e.squared
+                )
+            };
+            println!(
+                "  {band:<10}  {}    {}",
+                side(&b.to_reference),
+                side(&b.coverage)
+            );
+        }
+    }
     Ok(())
 }
 

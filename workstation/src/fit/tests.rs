@@ -120,9 +120,12 @@ fn mesh_error_measures_fits_mesh_like_fit_does_and_names_bad_input() {
     let dir = std::env::temp_dir().join(format!("ws-mesh-error-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mesh = dir.join("sphere.ply");
+    let points = dir.join("points.ply");
     let fit = run(&args(&[
         "gen:sphere:1:3000",
         "--quiet",
+        "--points-out",
+        points.to_str().unwrap(),
         "--mesh",
         mesh.to_str().unwrap(),
         "--resolution",
@@ -152,6 +155,36 @@ fn mesh_error_measures_fits_mesh_like_fit_does_and_names_bad_input() {
     );
     assert!(r.to_reference.max < 1e-3 && r.coverage.max < 1e-2, "{r:?}");
     assert_eq!(Some(r.triangles), fit.mesh_triangles);
+    let json = serde_json::to_value(&r).unwrap();
+    assert!(json.get("by_spacing").is_none(), "{json}");
+    // With the points: the same samples, broken down by distance from the nearest point.
+    let p = points.to_str().unwrap();
+    let line = [
+        m,
+        "--reference",
+        "sphere:1",
+        "--samples",
+        "20000",
+        "--points",
+        p,
+    ];
+    let by = run_mesh_error(&mesh_error_args(&line)).unwrap();
+    assert_eq!(by.to_reference, r.to_reference);
+    let json = serde_json::to_value(&by).unwrap();
+    let bands = json["by_spacing"]["bands"].as_array().unwrap();
+    assert_eq!(bands.len(), 6, "{json}");
+    for side in ["to_reference", "coverage"] {
+        let share: f64 = bands
+            .iter()
+            .map(|b| b[side]["samples"].as_f64().unwrap())
+            .sum();
+        assert!((share - 1.0).abs() < 1e-9, "{json}");
+    }
+    // 3000 random points on a unit sphere lie some 0.03 apart.
+    let spacing = json["by_spacing"]["spacing"].as_f64().unwrap();
+    assert!(spacing > 0.005 && spacing < 0.06, "{spacing}");
+    let lone = dir.join("lone.xyz");
+    std::fs::write(&lone, "0 0 1\n").unwrap();
     // Against the wrong radius both directions see the 10 % offset.
     let off = run_mesh_error(&mesh_error_args(&[m, "--reference", "sphere:1.1"])).unwrap();
     assert!(
@@ -168,6 +201,20 @@ fn mesh_error_measures_fits_mesh_like_fit_does_and_names_bad_input() {
         (
             vec!["missing.ply", "--reference", "sphere:1"],
             "missing.ply",
+        ),
+        (
+            vec![m, "--reference", "sphere:1", "--points", "nowhere.ply"],
+            "nowhere.ply",
+        ),
+        (
+            vec![
+                m,
+                "--reference",
+                "sphere:1",
+                "--points",
+                lone.to_str().unwrap(),
+            ],
+            "needs two distinct points",
         ),
     ] {
         let msg = format!("{:#}", run_mesh_error(&mesh_error_args(&line)).unwrap_err());
