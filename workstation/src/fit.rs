@@ -21,7 +21,7 @@ use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sim_core::accuracy::{
-    Distances, ErrorBySpacing, MeshReference, Reference, SampledError, TwoSidedError, mesh_error,
+    Distances, ErrorBySpacing, MeshReference, Reference, SampledError, TwoSidedError,
     zero_set_error,
 };
 use sim_core::io::{self, Format, Loaded};
@@ -249,7 +249,7 @@ pub struct MeshProfile {
 
 /// The two-sided error, relative to the reference size (see
 /// [`sim_core::accuracy::mesh_error`]).
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct SurfaceError {
     /// Samples on each side.
     pub samples: usize,
@@ -257,6 +257,9 @@ pub struct SurfaceError {
     pub to_reference: Distances,
     /// Reference → mesh: holes show here.
     pub coverage: Distances,
+    /// Both ways by distance from the nearest input point (as `mesh-error --points`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub by_spacing: Option<ErrorBySpacing>,
 }
 
 impl SurfaceError {
@@ -267,6 +270,7 @@ impl SurfaceError {
             samples: e.samples,
             to_reference,
             coverage,
+            by_spacing: None,
         }
     }
 }
@@ -525,14 +529,17 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             write_mesh(out, &mesh)?;
         }
         if let Some((_, r)) = reference.as_ref().filter(|_| want_surface) {
-            let e = mesh_error(
+            let sampled = SampledError::new(
                 &mesh,
                 r.as_ref(),
                 args.surface_samples,
                 args.seed ^ ERROR_SEED_SALT,
             )
             .context("the meshed zero set is empty: nothing to measure against the reference")?;
-            surface = Some(SurfaceError::relative(&e));
+            surface = Some(SurfaceError {
+                by_spacing: sampled.by_spacing(&points.positions),
+                ..SurfaceError::relative(&sampled.summary())
+            });
         }
     }
     if let Some(out) = &args.points_out {
@@ -658,6 +665,9 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
             "             reference → mesh   {} (coverage)",
             d(&e.coverage)
         );
+        if let Some(by) = &e.by_spacing {
+            print_by_spacing(by);
+        }
     }
     if let (Some(rms), Some(max)) = (r.projected_rms_error, r.projected_max_error) {
         println!(
@@ -808,33 +818,38 @@ pub fn print_mesh_error(r: &MeshErrorReport, json: bool) -> anyhow::Result<()> {
     );
     println!("ref → mesh   {} (coverage)", d(&r.coverage));
     if let Some(by) = &r.by_spacing {
-        println!(
-            "by distance from the nearest point, in its median spacing ({:.4e} m):",
-            by.spacing
-        );
-        println!("  spacings    mesh → ref                      ref → mesh (coverage)");
-        println!("              samples  RMS        sq. error    samples  RMS        sq. error");
-        for b in &by.bands {
-            let band = match b.to {
-                Some(to) => format!("{:.1}–{:.1}", b.from, to),
-                None => format!("≥ {:.1}", b.from),
-            };
-            let side = |e: &sim_core::accuracy::BandError| {
-                format!(
-                    "{:>5.1} %  {:.3e}  {:>5.1} %",
-                    100.0 * e.samples,
-                    e.rms,
-                    100.0 * e.squared
-                )
-            };
-            println!(
-                "  {band:<10}  {}    {}",
-                side(&b.to_reference),
-                side(&b.coverage)
-            );
-        }
+        print_by_spacing(by);
     }
     Ok(())
+}
+
+/// The bands of an [`ErrorBySpacing`] as a table (`mesh-error --points`, `fit --reference`).
+fn print_by_spacing(by: &ErrorBySpacing) {
+    println!(
+        "by distance from the nearest point, in its median spacing ({:.4e} m):",
+        by.spacing
+    );
+    println!("  spacings    mesh → ref                      ref → mesh (coverage)");
+    println!("              samples  RMS        sq. error    samples  RMS        sq. error");
+    for b in &by.bands {
+        let band = match b.to {
+            Some(to) => format!("{:.1}–{:.1}", b.from, to),
+            None => format!("≥ {:.1}", b.from),
+        };
+        let side = |e: &sim_core::accuracy::BandError| {
+            format!(
+                "{:>5.1} %  {:.3e}  {:>5.1} %",
+                100.0 * e.samples,
+                e.rms,
+                100.0 * e.squared
+            )
+        };
+        println!(
+            "  {band:<10}  {}    {}",
+            side(&b.to_reference),
+            side(&b.coverage)
+        );
+    }
 }
 
 #[cfg(test)]

@@ -52,6 +52,14 @@ fn generated_sphere_reports_the_checked_json_fields() {
         "relative to R for a sphere"
     );
     assert!(report.projected_rms_error.unwrap() < 1e-3);
+    // The surface error comes broken down by distance from the nearest input point too.
+    let bands = json["surface"]["by_spacing"]["bands"].as_array().unwrap();
+    assert_eq!(bands.len(), 6, "{json}");
+    let share: f64 = bands
+        .iter()
+        .map(|b| b["coverage"]["samples"].as_f64().unwrap())
+        .sum();
+    assert!((share - 1.0).abs() < 1e-9, "{json}");
     // The mesh file reads back with the triangles reported.
     let back = read_file(&mesh).unwrap().mesh.unwrap();
     assert_eq!(Some(back.triangles.len()), report.mesh_triangles);
