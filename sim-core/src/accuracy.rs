@@ -326,8 +326,11 @@ impl SampledError {
     /// spacing: where a method's error grows between the points, not at them, it is the
     /// interpolant, not the fit to the data. `None` for fewer than two distinct points.
     pub fn by_spacing(&self, points: &[DVec3]) -> Option<ErrorBySpacing> {
-        let spacing = median_spacing(points)?;
+        if points.len() < 2 {
+            return None;
+        }
         let index = PointIndex::new(points);
+        let spacing = median_spacing_in(points, &index)?;
         let bands = |samples: &[(DVec3, f64)]| {
             let gaps: Vec<f64> = samples
                 .par_iter()
@@ -382,7 +385,11 @@ pub fn median_spacing(points: &[DVec3]) -> Option<f64> {
     if points.len() < 2 {
         return None;
     }
-    let index = PointIndex::new(points);
+    median_spacing_in(points, &PointIndex::new(points))
+}
+
+/// [`median_spacing`] over an index already built on `points`.
+fn median_spacing_in(points: &[DVec3], index: &PointIndex) -> Option<f64> {
     let mut nearest: Vec<f64> = points
         .par_iter()
         .filter_map(|p| {
