@@ -149,14 +149,13 @@ impl GlobalField {
         let n = order.len();
         let c = params.size.pow(3);
         let mut coeffs = vec![0.0; n * c];
-        let mut frames = vec![
-            LocalFrame {
-                center: DVec3::ZERO,
-                axes: [DVec3::X, DVec3::Y, DVec3::Z],
-                half: 1.0
-            };
-            n
-        ];
+        // Every slot's frame is written by its fit.
+        let unfitted = LocalFrame {
+            center: DVec3::ZERO,
+            axes: [DVec3::X, DVec3::Y, DVec3::Z],
+            half: 1.0,
+        };
+        let mut frames = vec![unfitted; n];
         const BLOCK: usize = 512;
         coeffs
             .par_chunks_mut(c * BLOCK)
@@ -191,12 +190,20 @@ impl GlobalField {
         let sites = if params.gap_fields > 0.0 && params.centre_spacing > 0.0 {
             let index = PointIndex::new(points);
             let sites = crate::gaps::plan(points, normals, knn, &outlier, &order, &index, params);
-            for (frame, c) in
-                fit_gap_fields(&sites, points, normals, &outlier, &index, params, typical)
-            {
-                frames.push(frame);
-                coeffs.extend_from_slice(&c);
-            }
+            let first = frames.len();
+            frames.resize(first + sites.len(), unfitted);
+            coeffs.resize((first + sites.len()) * c, 0.0);
+            fit_gap_fields(
+                &sites,
+                points,
+                normals,
+                &outlier,
+                &index,
+                params,
+                typical,
+                &mut frames[first..],
+                &mut coeffs[first * c..],
+            );
             sites
         } else {
             Vec::new()
@@ -955,7 +962,8 @@ fn thinned_centres(knn: &KnnGraph, outlier: &[bool], spacing: f64) -> Vec<u32> {
 }
 
 /// Fit a local field at each gap site to the site's own `k` nearest inlier points, on all
-/// cores: (frame, coefficients) per site, in order.
+/// cores, into `frames` and `coeffs` (one frame and `size³` coefficients per site, in order).
+#[allow(clippy::too_many_arguments)]
 fn fit_gap_fields(
     sites: &[GapSite],
     points: &[DVec3],
@@ -964,13 +972,16 @@ fn fit_gap_fields(
     index: &PointIndex,
     params: &FitParams,
     typical: f64,
-) -> Vec<(LocalFrame, Vec<f64>)> {
-    let c = params.size.pow(3);
-    sites
-        .par_iter()
-        .map_init(
+    frames: &mut [LocalFrame],
+    coeffs: &mut [f64],
+) {
+    coeffs
+        .par_chunks_mut(params.size.pow(3))
+        .zip(frames.par_iter_mut())
+        .zip(sites.par_iter())
+        .for_each_init(
             || (FitScratch::new(params.size), Vec::new(), Vec::new()),
-            |(scratch, hp, hn), site| {
+            |(scratch, hp, hn), ((coef, frame), site)| {
                 hp.clear();
                 hn.clear();
                 for (j, _) in index.nearest_k(site.centre, params.k) {
@@ -986,12 +997,9 @@ fn fit_gap_fields(
                     normals: hn,
                     fallback_radius: typical,
                 };
-                let mut coeffs = vec![0.0; c];
-                let frame = fit_local(&hood, params, scratch, &mut coeffs);
-                (frame, coeffs)
+                *frame = fit_local(&hood, params, scratch, coef);
             },
-        )
-        .collect()
+        );
 }
 
 /// Point indices sorted along a Morton (Z-order) curve over the bounding box.
