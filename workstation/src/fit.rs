@@ -756,10 +756,12 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
             Box::new(MeshReference::new(truth).context("reference mesh has no triangles")?)
         }
     };
-    let points = match &args.points {
-        Some(path) => Some(read_file(path)?.points.positions),
-        None => None,
-    };
+    // Read before the sampling, so a bad points file fails fast.
+    let points = args
+        .points
+        .as_ref()
+        .map(|path| read_file(path).map(|l| (path, l.points.positions)))
+        .transpose()?;
     let seed = args.seed ^ ERROR_SEED_SALT; // as `fit` salts its own: same seed, same samples
     let sampled =
         SampledError::new(&mesh, reference.as_ref(), args.samples, seed).with_context(|| {
@@ -768,14 +770,14 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
                 args.mesh.display()
             )
         })?;
-    let by_spacing = match (&points, &args.points) {
-        (Some(points), Some(path)) => Some(sampled.by_spacing(points).with_context(|| {
+    let by_spacing = match points {
+        Some((path, points)) => Some(sampled.by_spacing(&points).with_context(|| {
             format!(
                 "{}: needs two distinct points to measure a spacing",
                 path.display()
             )
         })?),
-        _ => None,
+        None => None,
     };
     let e = sampled.summary();
     let (to_reference, coverage) = e.relative();
