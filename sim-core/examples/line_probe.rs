@@ -13,11 +13,12 @@
 //! [`FitParams`]: `k`, `weight_width`, `normal_weight`, `regularization`, `centre_spacing`,
 //! `offset`, `gap_fields`. `workstation fit`'s defaults are `normal_weight=0.25
 //! regularization=3e-4 centre_spacing=0.35 gap_fields=0.12`. Crossings are offsets along `N` from `C`; `-` means none in the segment.
+mod common;
+
 use std::process::ExitCode;
 
 use glam::DVec3;
 use sim_core::bspline::eval3_value;
-use sim_core::io::{self, Format};
 use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
 use sim_core::{FitParams, NoProgress};
 
@@ -65,11 +66,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let (c, n) = (vector(c)?, vector(n)?.normalize());
     let half: f64 = half.parse().map_err(|e| format!("HALF {half}: {e}"))?;
     let mut params = FitParams::default();
-    for kv in overrides {
-        let (key, value) = kv
-            .split_once('=')
-            .ok_or(format!("{kv}: expected KEY=VALUE"))?;
-        let v: f64 = value.parse().map_err(|e| format!("{kv}: {e}"))?;
+    for (key, v) in common::key_values(overrides)? {
         match key {
             "k" => params.k = v as usize,
             "weight_width" => params.weight_width = v,
@@ -81,8 +78,7 @@ fn run(args: &[String]) -> Result<(), String> {
             _ => return Err(format!("{key}: not a key this probe knows")),
         }
     }
-    let reader = std::fs::File::open(file).map_err(|e| format!("{file}: {e}"))?;
-    let loaded = io::read(reader, Format::Ply).map_err(|e| format!("{file}: {e}"))?;
+    let loaded = common::read_ply(file)?;
     let rec = reconstruct(
         &loaded.points,
         &params,
@@ -143,12 +139,5 @@ fn run(args: &[String]) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match run(&args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("line_probe: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    common::main("line_probe", run)
 }

@@ -12,6 +12,8 @@
 //! sphere projections, and moves that far times `smoothstep((g − from)/(to − from))`, where
 //! `g` is its distance to the nearest point over the median `rᵢ` (`from = to = 0`: everywhere).
 //! Keys: `reach` (0.9), `from` (0), `to` (0). Measure OUT with `workstation mesh-error`.
+mod common;
+
 use std::process::ExitCode;
 
 use glam::DVec3;
@@ -81,11 +83,7 @@ fn run(args: &[String]) -> Result<(), String> {
         return Err("usage: vertex_mls POINTS.ply MESH.ply OUT.ply [KEY=VALUE ...]".into());
     };
     let (mut reach, mut from, mut to) = (0.9, 0.0, 0.0);
-    for kv in overrides {
-        let (key, value) = kv
-            .split_once('=')
-            .ok_or(format!("{kv}: expected KEY=VALUE"))?;
-        let v: f64 = value.parse().map_err(|e| format!("{kv}: {e}"))?;
+    for (key, v) in common::key_values(overrides)? {
         match key {
             "reach" => reach = v,
             "from" => from = v,
@@ -93,18 +91,14 @@ fn run(args: &[String]) -> Result<(), String> {
             _ => return Err(format!("{key}: not a key vertex_mls knows")),
         }
     }
-    let read = |file: &str| {
-        let f = std::fs::File::open(file).map_err(|e| format!("{file}: {e}"))?;
-        io::read(f, Format::Ply).map_err(|e| format!("{file}: {e}"))
-    };
-    let loaded = read(points_file)?;
+    let loaded = common::read_ply(points_file)?;
     let points = &loaded.points.positions;
     let normals = loaded
         .points
         .normals
         .as_ref()
         .ok_or(format!("{points_file}: no normals"))?;
-    let mut mesh = read(mesh_file)?
+    let mut mesh = common::read_ply(mesh_file)?
         .mesh
         .ok_or(format!("{mesh_file}: no faces"))?;
     let index = PointIndex::new(points);
@@ -159,12 +153,5 @@ fn run(args: &[String]) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match run(&args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("vertex_mls: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    common::main("vertex_mls", run)
 }
