@@ -839,10 +839,15 @@ fn print_by_spacing(by: &ErrorBySpacing) {
             None => format!("≥ {:.1}", b.from),
         };
         let side = |e: &sim_core::accuracy::BandError| {
+            // An empty band has no RMS (the JSON's 0 is not an error of zero).
+            let rms = if e.samples > 0.0 {
+                format!("{:.3e}", e.rms)
+            } else {
+                "—".into()
+            };
             format!(
-                "{:>5.1} %  {:.3e}  {:>5.1} %",
+                "{:>5.1} %  {rms:<8}  {:>5.1} %",
                 100.0 * e.samples,
-                e.rms,
                 100.0 * e.squared
             )
         };
