@@ -121,6 +121,37 @@ impl GlobalField {
         params: &FitParams,
         progress: &dyn Progress,
     ) -> Result<Self, FieldError> {
+        Self::build_with_index(points, normals, knn, None, params, progress)
+    }
+
+    /// [`GlobalField::build`] with the caller's k-d tree over `points` (the one `knn` was built
+    /// with), which the gap fields' planning queries instead of building a second.
+    pub fn build_indexed(
+        points: &[DVec3],
+        normals: &[DVec3],
+        knn: &KnnGraph,
+        index: &PointIndex,
+        params: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, FieldError> {
+        if index.len() != points.len() {
+            return Err(FieldError::Mismatch {
+                points: points.len(),
+                normals: normals.len(),
+                graph: index.len(),
+            });
+        }
+        Self::build_with_index(points, normals, knn, Some(index), params, progress)
+    }
+
+    fn build_with_index(
+        points: &[DVec3],
+        normals: &[DVec3],
+        knn: &KnnGraph,
+        index: Option<&PointIndex>,
+        params: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, FieldError> {
         validate(points, normals, knn, params)?;
         let n = points.len();
         let radii: Vec<f64> = (0..n).map(|i| knn.radius(i)).collect();
@@ -188,8 +219,15 @@ impl GlobalField {
             );
         // Gap fields follow the points' fields (a static surface's only: thinned).
         let sites = if params.gap_fields > 0.0 && params.centre_spacing > 0.0 {
-            let index = PointIndex::new(points);
-            let sites = crate::gaps::plan(points, normals, knn, &outlier, &order, &index, params);
+            let own;
+            let index = match index {
+                Some(index) => index,
+                None => {
+                    own = PointIndex::new(points);
+                    &own
+                }
+            };
+            let sites = crate::gaps::plan(points, normals, knn, &outlier, &order, index, params);
             let first = frames.len();
             frames.resize(first + sites.len(), unfitted);
             coeffs.resize((first + sites.len()) * c, 0.0);
@@ -198,7 +236,7 @@ impl GlobalField {
                 points,
                 normals,
                 &outlier,
-                &index,
+                index,
                 params,
                 typical,
                 &mut frames[first..],

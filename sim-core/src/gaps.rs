@@ -182,6 +182,41 @@ mod tests {
     }
 
     #[test]
+    fn a_field_built_with_the_callers_index_is_the_same_field() {
+        use crate::field::{FieldError, GlobalField, NoProgress};
+        let (points, normals) = slotted_plane();
+        let index = PointIndex::new(&points);
+        let knn = KnnGraph::build(&points, &index, 20);
+        let params = FitParams {
+            gap_fields: 0.12,
+            centre_spacing: 0.35,
+            ..FitParams::default()
+        };
+        let own = GlobalField::build(&points, &normals, &knn, &params, &NoProgress).unwrap();
+        let given =
+            GlobalField::build_indexed(&points, &normals, &knn, &index, &params, &NoProgress)
+                .unwrap();
+        assert!(given.gap_field_count() > 0, "the slot gets gap fields");
+        assert_eq!(own.gap_field_count(), given.gap_field_count());
+        for x in [(11.5, 7.0, 0.3), (11.2, 12.0, -0.2), (3.0, 3.0, 0.5)] {
+            let x = DVec3::from(x);
+            assert_eq!(
+                own.value_and_gradient(x),
+                given.value_and_gradient(x),
+                "at {x}"
+            );
+        }
+        // An index over other points is refused, not trusted.
+        let other = PointIndex::new(&points[..10]);
+        let refused =
+            GlobalField::build_indexed(&points, &normals, &knn, &other, &params, &NoProgress);
+        assert!(matches!(
+            refused,
+            Err(FieldError::Mismatch { graph: 10, .. })
+        ));
+    }
+
+    #[test]
     fn a_plane_without_gaps_gets_no_sites() {
         let (points, normals) = plane(|_| true);
         assert!(sites(&points, &normals).is_empty());

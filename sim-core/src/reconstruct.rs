@@ -129,7 +129,7 @@ pub fn reconstruct(
     observer.end(Stage::Normals);
 
     observer.begin(Stage::Fit);
-    let field = GlobalField::build(pos, &normals, &knn, params, progress)?;
+    let field = GlobalField::build_indexed(pos, &normals, &knn, &index, params, progress)?;
     observer.end(Stage::Fit);
     Ok(Reconstruction {
         field,
