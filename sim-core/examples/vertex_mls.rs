@@ -10,8 +10,10 @@
 //! included); a point weighs
 //! `(1 − d²/hᵢ²)⁴` at distance `d < hᵢ = reach · rᵢ` from the vertex. A vertex takes up to three
 //! sphere projections, and moves that far times `smoothstep((g − from)/(to − from))`, where
-//! `g` is its distance to the nearest point over the median `rᵢ` (`from = to = 0`: everywhere).
-//! Keys: `reach` (0.9), `from` (0), `to` (0). Measure OUT with `workstation mesh-error`.
+//! `g` is its distance to the nearest point over the median `rᵢ` (`from = to = 0`: everywhere),
+//! times `amount` (the zero set of a field mixing the two fits in that proportion).
+//! Keys: `reach` (0.9), `from` (0), `to` (0), `amount` (1). Measure OUT with
+//! `workstation mesh-error`.
 mod common;
 
 use std::process::ExitCode;
@@ -82,12 +84,13 @@ fn run(args: &[String]) -> Result<(), String> {
     let [points_file, mesh_file, out_file, overrides @ ..] = args else {
         return Err("usage: vertex_mls POINTS.ply MESH.ply OUT.ply [KEY=VALUE ...]".into());
     };
-    let (mut reach, mut from, mut to) = (0.9, 0.0, 0.0);
+    let (mut reach, mut from, mut to, mut amount) = (0.9, 0.0, 0.0, 1.0);
     for (key, v) in common::key_values(overrides)? {
         match key {
             "reach" => reach = v,
             "from" => from = v,
             "to" => to = v,
+            "amount" => amount = v,
             _ => return Err(format!("{key}: not a key vertex_mls knows")),
         }
     }
@@ -136,7 +139,7 @@ fn run(args: &[String]) -> Result<(), String> {
                 _ => break,
             }
         }
-        let step = (x - *v) * share;
+        let step = (x - *v) * share * amount;
         total += step.length();
         moved += 1;
         *v += step;
