@@ -551,7 +551,7 @@ impl Scene {
 }
 
 /// A moved point farther than this fraction of its local domain's half edge from the domain's
-/// centre gets a new local field centred where it is now ([`relocations`]).
+/// centre gets a new local field centred where it is now (see `relocations`).
 pub const RELOCATE_BEYOND: f64 = 0.5;
 
 /// The local fields to move with their points at a commit: for every point of `changed` that

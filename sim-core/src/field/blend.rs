@@ -1,0 +1,227 @@
+//! Evaluating a field: the blend of the local fields covering a point, split into the two sides
+//! of a thin solid or gap where the fields face apart, and the nearest point's signed distance
+//! where none covers it.
+
+use glam::DVec3;
+
+use super::supports::Supports;
+use super::{GlobalField, SupportList, weight};
+use crate::bspline::{eval3, eval3_value};
+
+impl GlobalField {
+    /// `f(x)`.
+    #[inline]
+    pub fn value(&self, x: DVec3) -> f64 {
+        self.value_and_gradient(x).0
+    }
+
+    /// `f(x)` and `∇f(x)`. Allocation-free; finite for finite `x`.
+    ///
+    /// The covering fields are blended in two groups, split by the sign of their normal's dot
+    /// product with that of the most central covering support. When the groups face opposite
+    /// ways (mean normals with a dot product below `normal_agreement`: the two sides of a thin
+    /// solid, or of a thin gap, closer than the supports) averaging them would erase both
+    /// sheets; instead each group is blended alone and the two are combined like a CSG of
+    /// half-spaces: `max` (intersection) when the groups face away from each other (a thin
+    /// solid), `min` (union) when they face each other (a gap). There f has a crease where the
+    /// sides meet, and it can step where the split switches on (the groups' mean normals
+    /// crossing the threshold); elsewhere it is the papers' C¹ blend.
+    pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
+        self.value_and_gradient_over::<true>(x, &self.inner.grid)
+    }
+
+    /// `f(x)` with the supports taken from a list gathered once for a box (see
+    /// [`GlobalField::gather_supports`]): equal, bit for bit, to [`GlobalField::value`] for
+    /// every `x` in that box, without the per-query index lookups or the gradient's cost.
+    /// Block-wise grid sampling uses this.
+    pub fn value_near(&self, x: DVec3, supports: &SupportList) -> f64 {
+        self.value_and_gradient_over::<false>(x, supports).0
+    }
+
+    /// [`GlobalField::value_and_gradient`] with the supports taken from a list gathered for a
+    /// box ([`GlobalField::gather_supports`]): equal, bit for bit, for every `x` in that box.
+    pub fn value_and_gradient_near(&self, x: DVec3, supports: &SupportList) -> (f64, DVec3) {
+        self.value_and_gradient_over::<true>(x, supports)
+    }
+
+    /// `f` and, with `GRAD`, `∇f` (else the gradient is meaningless where the blend defines f).
+    fn value_and_gradient_over<const GRAD: bool>(
+        &self,
+        x: DVec3,
+        supports: &impl Supports,
+    ) -> (f64, DVec3) {
+        let [a, b] = self.blend::<GRAD>(x, supports);
+        let agreement = self.inner.params.normal_agreement;
+        let opposed = a.sw > 0.0
+            && b.sw > 0.0
+            && a.normal.dot(b.normal) < agreement * a.normal.length() * b.normal.length();
+        let result = if opposed {
+            let (fa, fb) = (a.value(), b.value());
+            let solid = (a.centre / a.sw - b.centre / b.sw).dot(a.normal) > 0.0;
+            let pick_a = if solid { fa.0 >= fb.0 } else { fa.0 <= fb.0 };
+            Some(if pick_a { fa } else { fb })
+        } else {
+            let all = Blend {
+                sw: a.sw + b.sw,
+                swf: a.swf + b.swf,
+                gsw: a.gsw + b.gsw,
+                gswf: a.gswf + b.gswf,
+                ..Blend::default()
+            };
+            (all.sw > 1e-12).then(|| all.value())
+        };
+        match result {
+            Some((f, g)) if f.is_finite() && g.is_finite() => (f, g),
+            _ => self.nearest_signed_distance(x),
+        }
+    }
+
+    /// Accumulate the blend at `x` over the supports containing it, in two groups split by the
+    /// sign of each field's normal against the most central covering field's.
+    #[inline]
+    fn blend<const GRAD: bool>(&self, x: DVec3, supports: &impl Supports) -> [Blend; 2] {
+        let d = &*self.inner;
+        let size = d.params.size;
+        let c = size * size * size;
+        let mut groups = [Blend::default(); 2];
+        // The split is relative to the normal of the most central covering support (largest
+        // weight; ties to the lower index), so it does not depend on the storage order.
+        // One scan finds the supports containing x (keeping up to HITS of them) and the most
+        // central one; the blend then visits the kept ones (past HITS it scans again), in the
+        // scan's order either way.
+        let (mut best, mut n_ref) = ((f64::INFINITY, usize::MAX), DVec3::ZERO);
+        let mut hits = [(0u32, 0.0f64); HITS];
+        let mut count = 0usize;
+        supports.for_each_containing(x, |i, _, dist2| {
+            if count < HITS {
+                hits[count] = (i as u32, dist2);
+            }
+            count += 1;
+            let key = (dist2 / (d.support[i] * d.support[i]), i);
+            if key.0 < best.0 || (key.0 == best.0 && key.1 < best.1) {
+                (best, n_ref) = (key, d.frames[i].axes[2]);
+            }
+        });
+        let mut visit = |i: usize, rel: DVec3, dist2: f64| {
+            let r = d.support[i];
+            let fr = &d.frames[i];
+            let normal = fr.axes[2];
+            let acc = &mut groups[usize::from(normal.dot(n_ref) < 0.0)];
+            let dist = dist2.sqrt();
+            let (phi, dphi) = weight(dist / r);
+            let [u, v, w] = fr.to_local(x);
+            acc.sw += phi;
+            acc.centre += fr.center * phi;
+            acc.normal += normal * phi;
+            if !GRAD {
+                acc.swf += phi * eval3_value(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
+                return;
+            }
+            let gphi = if dist > 0.0 {
+                rel * (dphi / (r * dist))
+            } else {
+                DVec3::ZERO
+            };
+            let (s, gq) = eval3(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
+            let inv_edge = 0.5 / fr.half;
+            let gs = (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + normal * gq[2]) * inv_edge;
+            acc.swf += phi * s;
+            acc.gsw += gphi;
+            acc.gswf += gphi * s + gs * phi;
+        };
+        if count <= HITS {
+            for &(i, dist2) in &hits[..count] {
+                let i = i as usize;
+                visit(i, x - d.frames[i].center, dist2);
+            }
+        } else {
+            supports.for_each_containing(x, visit);
+        }
+        groups
+    }
+
+    /// Signed distance to the nearest inlier point, signed by its normal (the fallback where
+    /// no support covers `x`).
+    pub fn nearest_signed_distance(&self, x: DVec3) -> (f64, DVec3) {
+        let d = &*self.inner;
+        // The index measures squared distances, which overflow beyond ~1e154: search from x
+        // pulled in along its ray instead (as far out, the nearest point is the same).
+        // (The index must not see NaN or infinity either.)
+        let q = DVec3::from_array(x.to_array().map(|c| {
+            if c.is_nan() {
+                0.0
+            } else {
+                c.clamp(-f64::MAX, f64::MAX)
+            }
+        }));
+        let far = q.abs().max_element();
+        let q = if far > FAR_QUERY {
+            q * (FAR_QUERY / far)
+        } else {
+            q
+        };
+        let (item, _) = d.nearest.nearest(q);
+        let i = d.nearest_ids[item] as usize;
+        let rel = x - d.frames[i].center;
+        let n = d.normals[i];
+        // Scaled length: finite even where |rel|² overflows.
+        let m = rel.abs().max_element();
+        let side = if m > 0.0 && m.is_finite() {
+            (rel / m).dot(n)
+        } else {
+            rel.dot(n)
+        };
+        let sign = if side < 0.0 { -1.0 } else { 1.0 };
+        let len = if m > 0.0 && m.is_finite() {
+            m * (rel / m).length()
+        } else {
+            m
+        };
+        if len > 0.0 && len.is_finite() {
+            (sign * len, rel * (sign / len))
+        } else if m > 0.0 && !rel.is_nan() {
+            // |rel| overflows (x near ±f64::MAX, or infinite): the largest component is a
+            // finite lower bound of the distance; 0 would claim that x lies on the surface.
+            let dir = (rel / m).try_normalize().map_or(n, |d| d * sign);
+            (sign * m.min(f64::MAX), dir)
+        } else {
+            (0.0, n)
+        }
+    }
+
+    /// `true` when some local support contains `x` (the blend, not the fallback, defines f).
+    pub fn is_covered(&self, x: DVec3) -> bool {
+        let d = &*self.inner;
+        let mut hit = false;
+        d.grid.for_each_containing(x, |_, _, _| hit = true);
+        hit
+    }
+}
+
+/// Supports a blend keeps from its one scan ([`GlobalField::blend`]); past this many it
+/// scans again.
+const HITS: usize = 64;
+
+/// Beyond this coordinate magnitude the nearest-point search runs from a point pulled in along
+/// the query's ray (squared distances overflow past ~1e154).
+const FAR_QUERY: f64 = 1e150;
+
+/// Running sums of the blend of one group of fields at one point.
+#[derive(Debug, Clone, Copy, Default)]
+struct Blend {
+    sw: f64,
+    swf: f64,
+    gsw: DVec3,
+    gswf: DVec3,
+    /// `Σ φᵢ cᵢ` and `Σ φᵢ nᵢ`: where the group's points are and which way they face.
+    centre: DVec3,
+    normal: DVec3,
+}
+
+impl Blend {
+    /// `(f, ∇f)` of this group alone (`sw > 0`).
+    fn value(&self) -> (f64, DVec3) {
+        let f = self.swf / self.sw;
+        (f, (self.gswf - self.gsw * f) / self.sw)
+    }
+}

@@ -1,0 +1,374 @@
+//! Building a field: the points' local fits (thinned to centres for a static surface), the gap
+//! fields between them, the support index and the trust witnesses.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::{FieldData, FieldError, GlobalField, NO_LOCAL, Progress, Witnesses};
+use crate::bspline::{MAX_SIZE, RefitOperator};
+use crate::gaps::GapSite;
+use crate::knn::{KnnGraph, PointIndex};
+use crate::local_fit::{FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local};
+use crate::outliers::flag_outliers;
+use crate::spatial::SupportGrid;
+
+impl GlobalField {
+    /// Fit every point's local field (on all cores) and index the supports.
+    ///
+    /// `normals` are unit and consistently oriented outward; `knn` lists each point's neighbours
+    /// (its `k` is the neighbourhood size; `params.k` is not consulted here).
+    pub fn build(
+        points: &[DVec3],
+        normals: &[DVec3],
+        knn: &KnnGraph,
+        params: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, FieldError> {
+        Self::build_with_index(points, normals, knn, None, params, progress)
+    }
+
+    /// [`GlobalField::build`] with the caller's k-d tree over `points` (the one `knn` was built
+    /// with), which the gap fields' planning queries instead of building a second.
+    pub fn build_indexed(
+        points: &[DVec3],
+        normals: &[DVec3],
+        knn: &KnnGraph,
+        index: &PointIndex,
+        params: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, FieldError> {
+        if index.len() != points.len() {
+            return Err(FieldError::Mismatch {
+                points: points.len(),
+                normals: normals.len(),
+                graph: index.len(),
+            });
+        }
+        Self::build_with_index(points, normals, knn, Some(index), params, progress)
+    }
+
+    fn build_with_index(
+        points: &[DVec3],
+        normals: &[DVec3],
+        knn: &KnnGraph,
+        index: Option<&PointIndex>,
+        params: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, FieldError> {
+        validate(points, normals, knn, params)?;
+        let n = points.len();
+        let radii: Vec<f64> = (0..n).map(|i| knn.radius(i)).collect();
+        let mut sorted: Vec<f64> = radii.iter().copied().filter(|r| *r > 0.0).collect();
+        sorted.sort_by(f64::total_cmp);
+        let typical = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+        let outlier = flag_outliers(
+            points,
+            normals,
+            knn,
+            params.outlier_ratio,
+            params.normal_agreement,
+            typical,
+        );
+        // The points that get a local field (all of them unless thinned), in Morton order.
+        let centres = thinned_centres(knn, &outlier, params.centre_spacing);
+        let centre_points: Vec<DVec3> = centres.iter().map(|&i| points[i as usize]).collect();
+        let order: Vec<u32> = morton_order(&centre_points)
+            .into_iter()
+            .map(|c| centres[c as usize])
+            .collect();
+        let mut slot = vec![NO_LOCAL; n];
+        for (s, &i) in order.iter().enumerate() {
+            slot[i as usize] = s as u32;
+        }
+        let n = order.len();
+        let c = params.size.pow(3);
+        let mut coeffs = vec![0.0; n * c];
+        // Every slot's frame is written by its fit.
+        let unfitted = LocalFrame {
+            center: DVec3::ZERO,
+            axes: [DVec3::X, DVec3::Y, DVec3::Z],
+            half: 1.0,
+        };
+        let mut frames = vec![unfitted; n];
+        const BLOCK: usize = 512;
+        coeffs
+            .par_chunks_mut(c * BLOCK)
+            .zip(frames.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each_init(
+                || (FitScratch::new(params.size), Vec::new(), Vec::new()),
+                |(scratch, hp, hn), (block, (cs, fs))| {
+                    for (o, (coef, frame)) in cs.chunks_mut(c).zip(fs.iter_mut()).enumerate() {
+                        let i = order[block * BLOCK + o] as usize;
+                        hp.clear();
+                        hn.clear();
+                        for &j in knn.neighbours(i) {
+                            if !outlier[j as usize] || j as usize == i {
+                                hp.push(points[j as usize]);
+                                hn.push(normals[j as usize]);
+                            }
+                        }
+                        let hood = Neighbourhood {
+                            center: points[i],
+                            normal: normals[i],
+                            points: hp,
+                            normals: hn,
+                            fallback_radius: typical,
+                        };
+                        *frame = fit_local(&hood, params, scratch, coef);
+                    }
+                    progress.advance(fs.len());
+                },
+            );
+        // Gap fields follow the points' fields (a static surface's only: thinned).
+        let sites = if params.gap_fields > 0.0 && params.centre_spacing > 0.0 {
+            let own;
+            let index = match index {
+                Some(index) => index,
+                None => {
+                    own = PointIndex::new(points);
+                    &own
+                }
+            };
+            let sites = crate::gaps::plan(points, normals, knn, &outlier, &order, index, params);
+            let first = frames.len();
+            frames.resize(first + sites.len(), unfitted);
+            coeffs.resize((first + sites.len()) * c, 0.0);
+            fit_gap_fields(
+                &sites,
+                points,
+                normals,
+                &outlier,
+                index,
+                params,
+                typical,
+                &mut frames[first..],
+                &mut coeffs[first * c..],
+            );
+            sites
+        } else {
+            Vec::new()
+        };
+        // Everything below is in slot order.
+        let support: Vec<f64> = frames
+            .iter()
+            .enumerate()
+            .map(|(s, f)| {
+                if order.get(s).is_some_and(|&i| outlier[i as usize]) {
+                    0.0
+                } else {
+                    params.support * f.half
+                }
+            })
+            .collect();
+        let inliers: Vec<u32> = (0..n as u32)
+            .filter(|&s| support[s as usize] > 0.0)
+            .collect();
+        if inliers.is_empty() {
+            return Err(FieldError::AllOutliers);
+        }
+        let inlier_points: Vec<DVec3> =
+            inliers.iter().map(|&s| frames[s as usize].center).collect();
+        let centers: Vec<DVec3> = frames.iter().map(|f| f.center).collect();
+        // The length scale is the points' fields' (gap fields, fitted where points are sparse,
+        // have wider supports and would move it, and with it the padding of mesh grids).
+        let mut sup_sorted: Vec<f64> = support[..n].iter().copied().filter(|r| *r > 0.0).collect();
+        sup_sorted.sort_by(f64::total_cmp);
+        let scale = sup_sorted[sup_sorted.len() / 2];
+        let grid = SupportGrid::new(&centers, &support, 2.0 * scale);
+        let witnesses = (params.centre_spacing > 0.0).then(|| {
+            let support: Vec<f64> = (0..points.len())
+                .map(|i| {
+                    let r = if radii[i] > 0.0 { radii[i] } else { typical };
+                    if outlier[i] {
+                        0.0
+                    } else {
+                        params.support * r * (1.0 + params.offset)
+                    }
+                })
+                .collect();
+            Witnesses {
+                grid: SupportGrid::new(points, &support, 2.0 * scale),
+                normals: normals.to_vec(),
+                support,
+            }
+        });
+        let refit = RefitOperator::new(params.size, params.size)
+            .map_err(|_| FieldError::Param("size must be in 3..=6"))?;
+        Ok(Self {
+            inner: Arc::new(FieldData {
+                params: *params,
+                frames,
+                support,
+                coeffs,
+                normals: order
+                    .iter()
+                    .map(|&i| normals[i as usize])
+                    .chain(sites.iter().map(|g| g.normal))
+                    .collect(),
+                nearest: PointIndex::new(&inlier_points),
+                nearest_ids: inliers,
+                slot,
+                orphans: Vec::new(),
+                fitted: n + sites.len(),
+                first_gap: n,
+                grid,
+                witnesses,
+                refit: Arc::new(refit),
+                scale,
+                outliers: outlier.iter().filter(|o| **o).count(),
+            }),
+        })
+    }
+}
+
+/// The points that get a local field, ascending: every point when `spacing` is 0, else a
+/// greedy pass in index order over the k-NN graph that skips a point where a centre already
+/// lies within `spacing` × its neighbourhood radius, so every inlier is a centre or lies that
+/// near one (outliers are left out: they would get no field anyway).
+fn thinned_centres(knn: &KnnGraph, outlier: &[bool], spacing: f64) -> Vec<u32> {
+    let n = knn.len();
+    if spacing <= 0.0 {
+        return (0..n as u32).collect();
+    }
+    let mut taken = vec![false; n];
+    let mut centres = Vec::new();
+    for i in 0..n {
+        if outlier[i] {
+            continue;
+        }
+        let reach = spacing * knn.radius(i);
+        let covered = knn
+            .neighbours(i)
+            .iter()
+            .zip(knn.distances(i))
+            .any(|(&j, &d)| taken[j as usize] && d <= reach);
+        if !covered {
+            taken[i] = true;
+            centres.push(i as u32);
+        }
+    }
+    centres
+}
+
+/// Fit a local field at each gap site to the site's own `k` nearest inlier points, on all
+/// cores, into `frames` and `coeffs` (one frame and `size³` coefficients per site, in order).
+#[allow(clippy::too_many_arguments)]
+fn fit_gap_fields(
+    sites: &[GapSite],
+    points: &[DVec3],
+    normals: &[DVec3],
+    outlier: &[bool],
+    index: &PointIndex,
+    params: &FitParams,
+    typical: f64,
+    frames: &mut [LocalFrame],
+    coeffs: &mut [f64],
+) {
+    coeffs
+        .par_chunks_mut(params.size.pow(3))
+        .zip(frames.par_iter_mut())
+        .zip(sites.par_iter())
+        .for_each_init(
+            || (FitScratch::new(params.size), Vec::new(), Vec::new()),
+            |(scratch, hp, hn), ((coef, frame), site)| {
+                hp.clear();
+                hn.clear();
+                for (j, _) in index.nearest_k(site.centre, params.k) {
+                    if !outlier[j] {
+                        hp.push(points[j]);
+                        hn.push(normals[j]);
+                    }
+                }
+                let hood = Neighbourhood {
+                    center: site.centre,
+                    normal: site.normal,
+                    points: hp,
+                    normals: hn,
+                    fallback_radius: typical,
+                };
+                *frame = fit_local(&hood, params, scratch, coef);
+            },
+        );
+}
+
+/// Point indices sorted along a Morton (Z-order) curve over the bounding box.
+fn morton_order(points: &[DVec3]) -> Vec<u32> {
+    let (lo, hi) = crate::pointset::bounds(points).unwrap_or((DVec3::ZERO, DVec3::ONE));
+    let scale = ((1u64 << 21) - 1) as f64 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    let spread = |v: f64| -> u64 {
+        let mut x = (v.clamp(0.0, ((1u64 << 21) - 1) as f64)) as u64;
+        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+        (x | (x << 2)) & 0x1249_2492_4924_9249
+    };
+    let mut keyed: Vec<(u64, u32)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let q = (*p - lo) * scale;
+            (
+                spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2),
+                i as u32,
+            )
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+fn validate(
+    points: &[DVec3],
+    normals: &[DVec3],
+    knn: &KnnGraph,
+    p: &FitParams,
+) -> Result<(), FieldError> {
+    if points.is_empty() {
+        return Err(FieldError::Empty);
+    }
+    if normals.len() != points.len() || knn.len() != points.len() {
+        return Err(FieldError::Mismatch {
+            points: points.len(),
+            normals: normals.len(),
+            graph: knn.len(),
+        });
+    }
+    let checks = [
+        (3..=MAX_SIZE).contains(&p.size),
+        p.offset > 0.0 && p.offset < 1.0,
+        p.weight_width > 0.0 && p.weight_width.is_finite(),
+        p.normal_weight > 0.0 && p.normal_weight.is_finite(),
+        p.regularization > 0.0 && p.regularization.is_finite(),
+        p.support > 0.0 && p.support <= 1.0,
+        p.normal_agreement.is_finite(),
+        p.outlier_ratio > 1.0,
+        p.trust > 0.0 && p.trust.is_finite(),
+        p.trust_weight >= 0.0 && p.trust_weight.is_finite(),
+        p.trust_plane > 0.0,
+        (0.0..=1.0).contains(&p.centre_spacing),
+        (0.0..1.0).contains(&p.gap_fields),
+    ];
+    const WHAT: [&str; 13] = [
+        "size must be in 3..=6",
+        "offset must be in (0, 1)",
+        "weight_width must be positive",
+        "normal_weight must be positive and finite",
+        "regularization must be positive",
+        "support must be in (0, 1]",
+        "normal_agreement must be finite",
+        "outlier_ratio must exceed 1",
+        "trust must be positive and finite",
+        "trust_weight must be finite and ≥ 0",
+        "trust_plane must be positive (infinite: no plane test)",
+        "centre_spacing must be in [0, 1]",
+        "gap_fields must be in [0, 1)",
+    ];
+    match checks.iter().position(|ok| !ok) {
+        Some(bad) => Err(FieldError::Param(WHAT[bad])),
+        None => Ok(()),
+    }
+}
