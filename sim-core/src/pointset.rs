@@ -4,6 +4,7 @@
 //! per-point arrays of matching length; a normal of zero length means "unknown, estimate it".
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Points with optional per-point normals and RGB colours.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -100,6 +101,34 @@ impl PointSet {
     }
 }
 
+/// Indices of `points` sorted along a Morton (Z-order) curve over their bounding box (21 bits
+/// per axis), so points near each other in space sit near each other in the order.
+pub fn morton_order(points: &[DVec3]) -> Vec<u32> {
+    let (lo, hi) = bounds(points).unwrap_or((DVec3::ZERO, DVec3::ONE));
+    let scale = ((1u64 << 21) - 1) as f64 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    let spread = |v: f64| -> u64 {
+        let mut x = (v.clamp(0.0, ((1u64 << 21) - 1) as f64)) as u64;
+        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+        (x | (x << 2)) & 0x1249_2492_4924_9249
+    };
+    let mut keyed: Vec<(u64, u32)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let q = (*p - lo) * scale;
+            (
+                spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2),
+                i as u32,
+            )
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
 /// Axis-aligned bounding box of `points`; `None` when empty.
 pub fn bounds(points: &[DVec3]) -> Option<(DVec3, DVec3)> {
     let first = *points.first()?;
@@ -108,4 +137,34 @@ pub fn bounds(points: &[DVec3]) -> Option<(DVec3, DVec3)> {
             .iter()
             .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_order_is_a_permutation_that_keeps_neighbours_together() {
+        assert!(morton_order(&[]).is_empty());
+        // A 4×4×4 lattice, shuffled: the order visits each 2×2×2 octant's eight points in one
+        // run, and every point once.
+        let mut points: Vec<DVec3> = (0..64)
+            .map(|i| DVec3::new((i % 4) as f64, ((i / 4) % 4) as f64, (i / 16) as f64))
+            .collect();
+        points.reverse();
+        points.swap(3, 40);
+        let order = morton_order(&points);
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..64).collect::<Vec<u32>>());
+        for run in order.chunks(8) {
+            let octant = |i: u32| (points[i as usize] / 2.0).floor();
+            assert!(run.iter().all(|&i| octant(i) == octant(run[0])), "{run:?}");
+        }
+        // Along a line, the order is the line's.
+        let line: Vec<DVec3> = [3.0, 0.5, 2.0, 1.0]
+            .map(|x| DVec3::new(x, 0.0, 0.0))
+            .to_vec();
+        assert_eq!(morton_order(&line), vec![1, 3, 2, 0]);
+    }
 }

@@ -95,43 +95,14 @@ pub fn sample_mesh(mesh: &TriMesh, n: usize, seed: u64, size: Option<f64>) -> Po
 
 /// Sort `points` (and their normals and colours) along a Morton curve over their bounding box.
 pub fn spatial_order(points: &mut PointSet) {
-    let Some((lo, hi)) = points.bounds() else {
-        return;
-    };
-    let scale = ((1u64 << 21) - 1) as f64 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
-    let spread = |v: f64| -> u64 {
-        let mut x = v.clamp(0.0, ((1u64 << 21) - 1) as f64) as u64;
-        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-        (x | (x << 2)) & 0x1249_2492_4924_9249
-    };
-    let mut keyed: Vec<(u64, u32)> = points
-        .positions
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let q = (*p - lo) * scale;
-            (
-                spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2),
-                i as u32,
-            )
-        })
-        .collect();
-    keyed.sort_unstable();
-    let take = |v: &[DVec3]| {
-        keyed
-            .iter()
-            .map(|&(_, i)| v[i as usize])
-            .collect::<Vec<_>>()
-    };
+    let order = sim_core::pointset::morton_order(&points.positions);
+    let take = |v: &[DVec3]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
     points.positions = take(&points.positions);
     if let Some(n) = &points.normals {
         points.normals = Some(take(n));
     }
     if let Some(c) = &points.colors {
-        points.colors = Some(keyed.iter().map(|&(_, i)| c[i as usize]).collect());
+        points.colors = Some(order.iter().map(|&i| c[i as usize]).collect());
     }
 }
 

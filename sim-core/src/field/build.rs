@@ -74,7 +74,7 @@ impl GlobalField {
         // The points that get a local field (all of them unless thinned), in Morton order.
         let centres = thinned_centres(knn, &outlier, params.centre_spacing);
         let centre_points: Vec<DVec3> = centres.iter().map(|&i| points[i as usize]).collect();
-        let order: Vec<u32> = morton_order(&centre_points)
+        let order: Vec<u32> = crate::pointset::morton_order(&centre_points)
             .into_iter()
             .map(|c| centres[c as usize])
             .collect();
@@ -292,33 +292,6 @@ fn fit_gap_fields(
                 *frame = fit_local(&hood, params, scratch, coef);
             },
         );
-}
-
-/// Point indices sorted along a Morton (Z-order) curve over the bounding box.
-fn morton_order(points: &[DVec3]) -> Vec<u32> {
-    let (lo, hi) = crate::pointset::bounds(points).unwrap_or((DVec3::ZERO, DVec3::ONE));
-    let scale = ((1u64 << 21) - 1) as f64 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
-    let spread = |v: f64| -> u64 {
-        let mut x = (v.clamp(0.0, ((1u64 << 21) - 1) as f64)) as u64;
-        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-        (x | (x << 2)) & 0x1249_2492_4924_9249
-    };
-    let mut keyed: Vec<(u64, u32)> = points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let q = (*p - lo) * scale;
-            (
-                spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2),
-                i as u32,
-            )
-        })
-        .collect();
-    keyed.par_sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 fn validate(
