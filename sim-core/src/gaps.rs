@@ -210,10 +210,18 @@ mod tests {
         let other = PointIndex::new(&points[..10]);
         let refused =
             GlobalField::build_indexed(&points, &normals, &knn, &other, &params, &NoProgress);
-        assert!(matches!(
+        let refused = refused.unwrap_err();
+        assert_eq!(
             refused,
-            Err(FieldError::Mismatch { graph: 10, .. })
-        ));
+            FieldError::IndexMismatch {
+                points: points.len(),
+                index: 10
+            }
+        );
+        assert_eq!(
+            refused.to_string(),
+            format!("{} points but a k-d tree over 10", points.len())
+        );
     }
 
     #[test]

@@ -40,10 +40,9 @@ impl GlobalField {
         progress: &dyn Progress,
     ) -> Result<Self, FieldError> {
         if index.len() != points.len() {
-            return Err(FieldError::Mismatch {
+            return Err(FieldError::IndexMismatch {
                 points: points.len(),
-                normals: normals.len(),
-                graph: index.len(),
+                index: index.len(),
             });
         }
         Self::build_with_index(points, normals, knn, Some(index), params, progress)

@@ -61,6 +61,14 @@ pub enum FieldError {
         /// Points in the graph.
         graph: usize,
     },
+    /// The k-d tree given to [`GlobalField::build_indexed`] is over other points.
+    #[error("{points} points but a k-d tree over {index}")]
+    IndexMismatch {
+        /// Number of points.
+        points: usize,
+        /// Points in the tree.
+        index: usize,
+    },
     /// A parameter is out of range.
     #[error("invalid fit parameter: {0}")]
     Param(&'static str),
