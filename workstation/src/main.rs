@@ -79,6 +79,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    quiet_mesa_device_select();
     workstation::logging::init();
     let cli = Cli::parse();
     match run(cli) {
@@ -87,6 +88,21 @@ fn main() -> ExitCode {
             eprintln!("error: {err:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Mesa's Vulkan device-select layer asks the Wayland compositor which GPU is the default one.
+/// Without a login session (`XDG_RUNTIME_DIR` unset: ssh, a service, a container) there is no
+/// compositor to ask, and libwayland prints "error: XDG_RUNTIME_DIR is invalid or not set in
+/// the environment." twice on the first GPU probe, which reads like a failure of ours (the
+/// demo then runs fine). So without a session the layer is switched off (`NODEVICE_SELECT`),
+/// unless the user set it or chose a device with it (`MESA_VK_DEVICE_SELECT`).
+fn quiet_mesa_device_select() {
+    let unset = |name: &str| std::env::var_os(name).is_none();
+    if unset("XDG_RUNTIME_DIR") && unset("NODEVICE_SELECT") && unset("MESA_VK_DEVICE_SELECT") {
+        // SAFETY: the first thing `main` does, before any other thread exists, so nothing can
+        // read the environment concurrently.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
 }
 

@@ -83,6 +83,29 @@ fn view_without_a_display_says_what_to_do_instead() {
 }
 
 #[test]
+fn a_headless_render_without_a_login_session_prints_no_wayland_error() {
+    // Over ssh or in a service there is no XDG_RUNTIME_DIR; Mesa's Vulkan device-select layer
+    // then made libwayland print "error: XDG_RUNTIME_DIR is invalid…" on the GPU probe.
+    let dir = std::env::temp_dir().join(format!("ws-cli-xdg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("bunny.png");
+    let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/bunny.ply");
+    let out = workstation()
+        .args(["render", bunny, "--size", "64", "48", "--out"])
+        .arg(&png)
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("NODEVICE_SELECT")
+        .env_remove("MESA_VK_DEVICE_SELECT")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(png.is_file());
+    assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn view_rejects_a_bad_window_size_naming_the_flag() {
     let out = workstation()
         .args(["view", "--size", "10x10"])
