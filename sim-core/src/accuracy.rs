@@ -330,7 +330,7 @@ impl SampledError {
             return None;
         }
         let index = PointIndex::new(points);
-        let spacing = median_spacing_in(points, &index)?;
+        let spacing = crate::resample::spacing_in(points, &index, usize::MAX)?;
         let bands = |samples: &[(DVec3, f64)]| {
             let gaps: Vec<f64> = samples
                 .par_iter()
@@ -378,34 +378,6 @@ impl SampledError {
 
 /// Band edges of [`SampledError::by_spacing`], in median spacings from the nearest point.
 pub const SPACING_BANDS: [f64; 7] = [0.0, 0.5, 1.0, 1.5, 2.0, 3.0, f64::INFINITY];
-
-/// The median over `points` of the distance to the nearest other point at a positive distance
-/// (duplicates skipped); `None` when there is none.
-pub fn median_spacing(points: &[DVec3]) -> Option<f64> {
-    if points.len() < 2 {
-        return None;
-    }
-    median_spacing_in(points, &PointIndex::new(points))
-}
-
-/// [`median_spacing`] over an index already built on `points`.
-fn median_spacing_in(points: &[DVec3], index: &PointIndex) -> Option<f64> {
-    let mut nearest: Vec<f64> = points
-        .par_iter()
-        .filter_map(|p| {
-            index
-                .nearest_k(*p, 8)
-                .into_iter()
-                .map(|(_, d)| d)
-                .find(|d| *d > 0.0)
-        })
-        .collect();
-    if nearest.is_empty() {
-        return None;
-    }
-    nearest.par_sort_unstable_by(f64::total_cmp);
-    Some(nearest[nearest.len() / 2])
-}
 
 /// [`SampledError::by_spacing`]'s result.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -472,12 +444,12 @@ mod tests {
     }
 
     #[test]
-    fn median_spacing_skips_duplicates_and_needs_two_points() {
-        let mut points = grid(6, 0.25);
-        points.extend(grid(6, 0.25)); // every point twice
-        assert!((median_spacing(&points).unwrap() - 0.25).abs() < 1e-12);
-        assert_eq!(median_spacing(&[DVec3::ONE]), None);
-        assert_eq!(median_spacing(&[DVec3::ONE, DVec3::ONE]), None);
+    fn bands_are_in_the_spacing_of_distinct_points() {
+        let mut points = grid(12, 0.1);
+        points.extend(grid(12, 0.1)); // every point twice, as a mesh file's seams repeat them
+        let by = sampled(0.1, |_| 1e-3).by_spacing(&points).unwrap();
+        assert!((by.spacing - 0.1).abs() < 1e-12, "{}", by.spacing);
+        assert_eq!(sampled(0.1, |_| 1e-3).by_spacing(&[DVec3::ONE; 2]), None);
     }
 
     #[test]

@@ -13,6 +13,7 @@
 //! whose merged points are the cluster means projected onto the zero set.
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 
 use crate::field::GlobalField;
 use crate::knn::PointIndex;
@@ -221,7 +222,15 @@ pub fn downsample(points: &PointSet, field: &GlobalField, min_distance: f64) -> 
 /// Points [`downsample`] merges have normals within this cosine (about 25°).
 pub const MERGE_MAX_ANGLE_COS: f64 = 0.9;
 
-/// Median distance from each point to its nearest neighbour: the set's spacing.
+/// How many nearest points a spacing query looks through for one at a positive distance. A
+/// mesh file repeats a vertex where its normals or texture split (two or three copies); a point
+/// repeated more often than this counts no spacing.
+pub const SPACING_NEIGHBOURS: usize = 8;
+
+/// The set's spacing: the median distance from each point to its nearest *distinct* point.
+/// Duplicates are skipped: with a mesh file's repeated seam vertices counted, the median could be
+/// 0, and every length set from it (resampling, paint's rim points) with it. 0 when no two
+/// points differ.
 pub fn spacing(points: &[DVec3]) -> f64 {
     spacing_sampled(points, usize::MAX)
 }
@@ -232,20 +241,49 @@ pub fn spacing_sampled(points: &[DVec3], max_queries: usize) -> f64 {
     if points.len() < 2 || max_queries == 0 {
         return 0.0;
     }
-    let index = PointIndex::new(points);
-    let stride = points.len().div_ceil(max_queries).max(1);
-    let mut d: Vec<f64> = points
-        .iter()
-        .step_by(stride)
-        .map(|&p| index.nearest_k(p, 2).get(1).map_or(0.0, |x| x.1))
+    spacing_in(points, &PointIndex::new(points), max_queries).unwrap_or(0.0)
+}
+
+/// [`spacing_sampled`] over an index already built on `points`; `None` when no queried point
+/// has a distinct point among its [`SPACING_NEIGHBOURS`] nearest.
+pub fn spacing_in(points: &[DVec3], index: &PointIndex, max_queries: usize) -> Option<f64> {
+    let stride = points.len().div_ceil(max_queries.max(1)).max(1);
+    let mut nearest: Vec<f64> = points
+        .par_chunks(stride)
+        .filter_map(|chunk| {
+            index
+                .nearest_k(chunk[0], SPACING_NEIGHBOURS)
+                .into_iter()
+                .map(|(_, d)| d)
+                .find(|d| *d > 0.0)
+        })
         .collect();
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
+    if nearest.is_empty() {
+        return None;
+    }
+    nearest.par_sort_unstable_by(f64::total_cmp);
+    Some(nearest[nearest.len() / 2])
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spacing_skips_duplicates_and_needs_two_distinct_points() {
+        let grid: Vec<DVec3> = (0..36)
+            .map(|i| DVec3::new((i % 6) as f64, (i / 6) as f64, 0.0) * 0.25)
+            .collect();
+        assert_eq!(spacing(&grid), 0.25);
+        // Every point twice (a mesh file repeats its seam vertices): counted, the duplicates
+        // made the median 0.
+        let doubled: Vec<DVec3> = grid.iter().chain(&grid).copied().collect();
+        assert_eq!(spacing(&doubled), 0.25);
+        assert_eq!(spacing_sampled(&doubled, 10), 0.25);
+        assert_eq!(spacing(&[DVec3::ONE]), 0.0);
+        assert_eq!(spacing(&[DVec3::ONE; 2]), 0.0);
+        assert_eq!(spacing(&[DVec3::ONE; 3 * SPACING_NEIGHBOURS]), 0.0);
+    }
 
     #[test]
     fn hexagon_cell_has_its_vertices_as_largest_circles() {

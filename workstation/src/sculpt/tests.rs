@@ -241,3 +241,56 @@ fn counts_over_their_caps_name_the_field_and_the_limit() {
         .is_ok()
     );
 }
+
+/// An ASCII PLY of `n` points on a sphere of radius `r` (a Fibonacci lattice) with their
+/// normals, each written `copies` times.
+fn sphere_ply(n: usize, r: f64, copies: usize) -> String {
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n",
+        n * copies
+    );
+    for _ in 0..copies {
+        for i in 0..n {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let a = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            let (s, c) = ((1.0 - z * z).sqrt(), a.cos());
+            let (x, y) = (s * c, s * a.sin());
+            text += &format!("{} {} {} {x} {y} {z}\n", r * x, r * y, r * z);
+        }
+    }
+    text
+}
+
+#[test]
+fn a_file_that_repeats_its_points_sculpts_like_one_that_does_not() {
+    // A mesh file repeats a vertex wherever its normals or texture split; counted, those
+    // duplicates made the object's spacing 0 and paint's rim points failed on it.
+    let dir = std::env::temp_dir().join(format!("sculpt-repeats-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut added = Vec::new();
+    for copies in [1, 2] {
+        std::fs::write(dir.join("ball.ply"), sphere_ply(1500, 0.05, copies)).unwrap();
+        let script = Script::parse(
+            "mesh_resolution = 24\n[[object]]\nname = \"ball\"\nfile = \"ball.ply\"\n\
+             [[op]]\nkind = \"paint\"\nobject = \"ball\"\ncenter = [0.0, 0.0, 0.05]\n\
+             color = [200, 0, 0]\nradius = 0.012\n",
+        )
+        .unwrap();
+        let report = run_script(&script, &dir, &dir.join("out"))
+            .unwrap_or_else(|e| panic!("{copies} copies: {e:#}"));
+        let summary = &report.ops[0].summary;
+        let rim: usize = summary
+            .split(", ")
+            .nth(1)
+            .and_then(|s| s.split(' ').next())
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{summary}"));
+        added.push(rim);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(added[0] > 0, "{added:?}");
+    // Rim points are placed by the spacing: the same spacing places about as many, not
+    // one per micrometre.
+    assert!(added[1] <= 2 * added[0] + 4, "{added:?}");
+}
