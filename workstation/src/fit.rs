@@ -392,13 +392,8 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
     let (points, own_mesh, default_ref): (PointSet, Option<TriMesh>, ReferenceSpec) = match &input {
         InputSpec::File(path) => {
             let mut loaded = read_file(path)?;
-            // A mesh without normals: its winding gives them (more reliable than PCA + MST
-            // orientation on thin parts); `--normals estimate` still ignores them.
-            if loaded.points.normals.is_none()
-                && let Some(mesh) = &loaded.mesh
-            {
-                loaded.points.normals = Some(mesh.vertex_normals());
-            }
+            // `--normals estimate` still ignores these.
+            loaded.normals_from_winding();
             (loaded.points, loaded.mesh, ReferenceSpec::None)
         }
         InputSpec::SampledMesh { path, n } => {

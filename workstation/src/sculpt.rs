@@ -169,7 +169,9 @@ pub(crate) fn load_object(
                 Format::from_extension(ext).with_context(|| format!("unknown format `{ext}`"))?;
             let f = std::fs::File::open(&path)
                 .with_context(|| format!("opening {}", path.display()))?;
-            io::read(std::io::BufReader::new(f), format)?.points
+            let mut loaded = io::read(std::io::BufReader::new(f), format)?;
+            loaded.normals_from_winding();
+            loaded.points
         }
         (None, Some(g)) if g.shape.starts_with("sample:") => {
             // A dense sampling of a mesh file (relative to the scene), scaled so its box's

@@ -59,6 +59,22 @@ pub struct Loaded {
     pub mesh: Option<TriMesh>,
 }
 
+impl Loaded {
+    /// Give the points their mesh's area-weighted vertex normals when the file had faces but
+    /// no normals (an STL, most OBJ and OFF files): the winding says which way is out, more
+    /// reliably than estimated normals' orientation on thin parts. A vertex no triangle uses
+    /// gets a zero normal, which [`PointSet`] reads as "unknown, estimate it". Nothing changes
+    /// for a file with normals or without faces.
+    pub fn normals_from_winding(&mut self) {
+        if self.points.normals.is_none()
+            && let Some(mesh) = &self.mesh
+            && mesh.vertices.len() == self.points.len()
+        {
+            self.points.normals = Some(mesh.vertex_normals());
+        }
+    }
+}
+
 /// Why a file could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum IoError {

@@ -1,5 +1,11 @@
-//! STL: binary and ASCII reading (one vertex per triangle corner, no welding), binary writing.
+//! STL: binary and ASCII reading, binary writing.
+//!
+//! STL stores every triangle corner on its own: a vertex shared by six triangles comes six
+//! times. Reading welds corners at exactly one position into one vertex (first occurrence
+//! first), so the points are the surface's samples once each and the mesh is connected; read
+//! unwelded, every point had five twins at distance 0, and its normal was one facet's.
 
+use std::collections::HashMap;
 use std::io::Write;
 
 use glam::{DVec3, Vec3};
@@ -62,18 +68,33 @@ pub fn read_stl(bytes: &[u8]) -> Result<Loaded, IoError> {
             });
         }
     }
-    let triangles = (0..vertices.len() as u32 / 3)
-        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-        .collect();
-    let mesh = TriMesh {
-        vertices: vertices.clone(),
-        normals: Vec::new(),
-        triangles,
-    };
+    let mesh = weld(&vertices);
     Ok(Loaded {
-        points: PointSet::from_positions(vertices),
+        points: PointSet::from_positions(mesh.vertices.clone()),
         mesh: Some(mesh),
     })
+}
+
+/// The mesh of triangles `corners[3t..3t + 3]`, with corners at one position (bit for bit, +0
+/// and −0 alike) made one vertex.
+fn weld(corners: &[DVec3]) -> TriMesh {
+    let key = |p: DVec3| (p + DVec3::ZERO).to_array().map(f64::to_bits);
+    let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(corners.len() / 4);
+    let mut vertices = Vec::new();
+    let index: Vec<u32> = corners
+        .iter()
+        .map(|&p| {
+            *first.entry(key(p)).or_insert_with(|| {
+                vertices.push(p);
+                vertices.len() as u32 - 1
+            })
+        })
+        .collect();
+    TriMesh {
+        vertices,
+        normals: Vec::new(),
+        triangles: index.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+    }
 }
 
 /// Write a mesh as binary STL (facet normals from the winding).

@@ -103,6 +103,76 @@ fn mesh_writers_round_trip() {
 }
 
 #[test]
+fn an_stl_is_read_as_one_connected_mesh_with_each_vertex_once() {
+    // STL repeats a vertex once per triangle using it. Read as given, a tetrahedron was 12
+    // points, each with three twins at distance 0, and 4 separate triangles.
+    let tetrahedron = TriMesh {
+        vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+        normals: Vec::new(),
+        triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+    };
+    let mut binary = Vec::new();
+    io::write_mesh(&mut binary, &tetrahedron, Format::Stl).unwrap();
+    // The same in ASCII, with one corner written as −0 (the same position).
+    let ascii = "solid t
+        facet normal 0 0 -1
+outer loop
+vertex 0 0 0
+vertex 0 1 0
+vertex 1 0 0
+endloop
+endfacet
+        facet normal 0 -1 0
+outer loop
+vertex 0 0 0
+vertex 1 0 0
+vertex 0 0 1
+endloop
+endfacet
+        facet normal -1 0 0
+outer loop
+vertex -0 0 0
+vertex 0 0 1
+vertex 0 1 0
+endloop
+endfacet
+        facet normal 1 1 1
+outer loop
+vertex 1 0 0
+vertex 0 1 0
+vertex 0 0 1
+endloop
+endfacet
+        endsolid t
+";
+    for (bytes, what) in [(&binary[..], "binary"), (ascii.as_bytes(), "ASCII")] {
+        let loaded = io::read(bytes, Format::Stl).unwrap();
+        let mesh = loaded.mesh.unwrap();
+        assert_eq!(mesh.vertices.len(), 4, "{what}");
+        assert_eq!(loaded.points.positions, mesh.vertices, "{what}");
+        for (t, want) in mesh.triangles.iter().zip(&tetrahedron.triangles) {
+            for k in 0..3 {
+                let corner = mesh.vertices[t[k] as usize];
+                assert_eq!(corner, tetrahedron.vertices[want[k] as usize], "{what}");
+            }
+        }
+        assert_eq!(mesh.components().1, vec![4], "{what}: one piece");
+        // Each vertex's normal from the winding is the mean of its three faces', not one
+        // facet's.
+        let origin = mesh
+            .vertices
+            .iter()
+            .position(|v| *v == DVec3::ZERO)
+            .unwrap();
+        let n = mesh.vertex_normals()[origin];
+        assert!(
+            (n - DVec3::NEG_ONE.normalize()).length() < 1e-12,
+            "{what}: {n}"
+        );
+    }
+}
+
+#[test]
 fn malformed_files_name_the_line_or_record() {
     let cases: [(&[u8], Format, &str); 8] = [
         (b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 zz 0\n", Format::Ply, "line 9"),

@@ -37,7 +37,8 @@ fn default_mesh_resolution() -> usize {
 pub struct ObjectSpec {
     /// Name used by operations and output files.
     pub name: String,
-    /// A point file (PLY, OFF, OBJ, XYZ), relative to the script.
+    /// A point or mesh file (PLY, OFF, OBJ, STL, XYZ), relative to the script; a mesh without
+    /// vertex normals gives its points its faces' area-weighted normals.
     pub file: Option<String>,
     /// Or an analytic shape to sample.
     pub generate: Option<Generate>,

@@ -294,3 +294,68 @@ fn a_file_that_repeats_its_points_sculpts_like_one_that_does_not() {
     // one per micrometre.
     assert!(added[1] <= 2 * added[0] + 4, "{added:?}");
 }
+
+/// A UV sphere of radius `r`: `around` × (`rings` − 1) vertices plus the poles, wound
+/// counter-clockwise from outside.
+fn uv_sphere(r: f64, around: u32, rings: u32) -> sim_core::mesh::TriMesh {
+    use glam::DVec3;
+    let mut vertices = vec![DVec3::Z * r, -DVec3::Z * r];
+    for i in 1..rings {
+        let polar = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..around {
+            let a = std::f64::consts::TAU * j as f64 / around as f64;
+            vertices
+                .push(r * DVec3::new(polar.sin() * a.cos(), polar.sin() * a.sin(), polar.cos()));
+        }
+    }
+    let at = |i: u32, j: u32| 2 + (i - 1) * around + j % around;
+    let mut triangles = Vec::new();
+    for j in 0..around {
+        triangles.push([0, at(1, j), at(1, j + 1)]);
+        triangles.push([1, at(rings - 1, j + 1), at(rings - 1, j)]);
+        for i in 1..rings - 1 {
+            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    sim_core::mesh::TriMesh {
+        vertices,
+        normals: Vec::new(),
+        triangles,
+    }
+}
+
+#[test]
+fn a_mesh_file_is_loaded_with_each_vertex_once_and_its_winding_normals() {
+    // An STL gives every triangle its own three corners and no vertex normals: loaded as given,
+    // a scene saw each vertex six times, and estimated normals where the winding says which
+    // way is out.
+    let dir = std::env::temp_dir().join(format!("sculpt-stl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sphere = uv_sphere(0.05, 32, 16);
+    let file = std::fs::File::create(dir.join("ball.stl")).unwrap();
+    sim_core::io::write_mesh(file, &sphere, sim_core::io::Format::Stl).unwrap();
+    let spec = super::script::ObjectSpec {
+        name: "ball".into(),
+        file: Some("ball.stl".into()),
+        generate: None,
+        offset: [0.0; 3],
+    };
+    let object = super::load_object(&spec, &dir, &sim_core::FitParams::default()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(object.positions.len(), sphere.vertices.len());
+    let winding = sphere.vertex_normals();
+    for (p, n) in object.positions.iter().zip(&object.normals) {
+        // The STL holds f32 positions: find the vertex it came from.
+        let v = sphere
+            .vertices
+            .iter()
+            .position(|v| (*v - *p).length() < 1e-7)
+            .unwrap();
+        assert!(
+            (*n - winding[v]).length() < 1e-6,
+            "{p}: {n} against {}",
+            winding[v]
+        );
+    }
+}
