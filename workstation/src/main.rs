@@ -40,7 +40,7 @@ enum Command {
     ShareIdentity(workstation::share::identity::IdentityArgs),
     /// Write a scene's strokes as a fake-device path file for `haptics-server --fake-path file`.
     HandPath(workstation::session::run::HandPathArgs),
-    /// Render a point or mesh file (PLY, OFF, OBJ, XYZ) headless to a PNG.
+    /// Render a point or mesh file (PLY, OFF, OBJ, STL, XYZ) headless to a PNG.
     Render(workstation::live::snapshot_png::RenderArgs),
     /// Print what this build can do and how to start.
     Status,

@@ -300,13 +300,7 @@ fn a_click_on_a_tool_button_selects_it_and_the_probe_follows_the_mouse() {
     );
     x.xdotool(&["mousemove", &format!("{cx:.0}"), &format!("{cy:.0}")]);
     std::thread::sleep(Duration::from_millis(1500));
-    x.xdotool(&[
-        "search",
-        "--name",
-        "workstation view",
-        "windowfocus",
-        "--sync",
-    ]);
+    focus(&x);
     x.xdotool(&["key", "F12"]);
     let out = dir.path().join("out");
     let t0 = Instant::now();
@@ -486,6 +480,104 @@ fn drag(x: &Xvfb, from: (f64, f64), to: (f64, f64), hold: Duration) {
     std::thread::sleep(Duration::from_millis(800));
 }
 
+fn focus(x: &Xvfb) {
+    x.xdotool(&[
+        "search",
+        "--name",
+        "workstation view",
+        "windowfocus",
+        "--sync",
+    ]);
+}
+
+fn tool(name: &'static str) -> impl Fn(&serde_json::Value) -> bool {
+    move |s: &serde_json::Value| s.get("tool").and_then(|t| t.as_str()) == Some(name)
+}
+
+/// The window's state once it has drawn a few frames and knows where the region and the
+/// object are on screen.
+fn wait_drawn(state_file: &Path, child: &mut Child) -> serde_json::Value {
+    wait_state(state_file, child, "the window", |s| {
+        s.get("frames").and_then(|f| f.as_f64()).unwrap_or(0.0) >= 3.0
+            && s.get("region_centre").and_then(xy).is_some()
+            && s.get("object_centre").and_then(xy).is_some()
+    })
+}
+
+/// Select the rope, grab the surface under `at` (it must be the 5 cm ball centred at the
+/// origin), drag 80 pixels up and let go. Returns where it grabbed.
+fn rope_pull_on_the_ball(
+    x: &Xvfb,
+    state_file: &Path,
+    child: &mut Child,
+    at: (f64, f64),
+) -> [f64; 3] {
+    focus(x);
+    x.xdotool(&["key", "2"]);
+    wait_state(state_file, child, "the rope selected", tool("rope"));
+    x.xdotool(&[
+        "mousemove",
+        &format!("{:.0}", at.0),
+        &format!("{:.0}", at.1),
+    ]);
+    let s = wait_state(state_file, child, "the surface under the mouse", |s| {
+        s.pointer("/mouse/pointer")
+            .and_then(xy)
+            .is_some_and(|p| (p.0 - at.0).abs() < 1.5 && (p.1 - at.1).abs() < 1.5)
+            && s.pointer("/mouse/hit").and_then(xyz).is_some()
+    });
+    let grab = s.pointer("/mouse/hit").and_then(xyz).unwrap();
+    let r = grab.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(
+        (r - 0.05).abs() < 1e-3,
+        "the cursor lies on the 5 cm ball: |hit| = {r}"
+    );
+    drag(x, at, (at.0, at.1 - 80.0), Duration::from_millis(1500));
+    grab
+}
+
+/// Export (Ctrl+E) into `out`; the export's directory once its last file is written.
+fn export(x: &Xvfb, out: &Path, state_file: &Path) -> std::path::PathBuf {
+    focus(x);
+    x.xdotool(&["key", "ctrl+e"]);
+    let t0 = Instant::now();
+    loop {
+        let found = std::fs::read_dir(out).ok().and_then(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path())).find(|p| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with("export_"))
+                    && p.join("final_mesh.stl").exists() // written after final.ply
+            })
+        });
+        if let Some(p) = found {
+            return p;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "Ctrl+E exported nothing; the state: {:?}",
+            state(state_file)
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+fn dist(p: &[f64; 3], q: &[f64; 3]) -> f64 {
+    p.iter()
+        .zip(q)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// How far the points within 2 cm of `grab` stand out of the 5 cm ball at the origin, at most.
+fn bump_at(points: &[([f64; 3], [u8; 3])], grab: &[f64; 3]) -> f64 {
+    points
+        .iter()
+        .filter(|(p, _)| dist(p, grab) < 0.02)
+        .map(|(p, _)| dist(p, &[0.0; 3]) - 0.05)
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
 #[test]
 fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
     let _slot = e2e_tests::busy_slot();
@@ -502,61 +594,15 @@ fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
             state_file.to_str().unwrap(),
         ],
     );
-    let s = wait_state(&state_file, &mut child, "the window", |s| {
-        s.get("frames").and_then(|f| f.as_f64()).unwrap_or(0.0) >= 3.0
-            && s.get("region_centre").and_then(xy).is_some()
-            && s.get("object_centre").and_then(xy).is_some()
-    });
+    let s = wait_drawn(&state_file, &mut child);
     let region = s.get("region_centre").and_then(xy).unwrap();
     let object = s.get("object_centre").and_then(xy).unwrap();
-    let focus = || {
-        x.xdotool(&[
-            "search",
-            "--name",
-            "workstation view",
-            "windowfocus",
-            "--sync",
-        ])
-    };
-    let tool = |name: &'static str| {
-        move |s: &serde_json::Value| s.get("tool").and_then(|t| t.as_str()) == Some(name)
-    };
 
     // The rope: grab the surface under the region's centre, drag 80 pixels up, let go.
-    focus();
-    x.xdotool(&["key", "2"]);
-    wait_state(&state_file, &mut child, "the rope selected", tool("rope"));
-    x.xdotool(&[
-        "mousemove",
-        &format!("{:.0}", region.0),
-        &format!("{:.0}", region.1),
-    ]);
-    let s = wait_state(
-        &state_file,
-        &mut child,
-        "the surface under the mouse",
-        |s| {
-            s.pointer("/mouse/pointer")
-                .and_then(xy)
-                .is_some_and(|p| (p.0 - region.0).abs() < 1.5 && (p.1 - region.1).abs() < 1.5)
-                && s.pointer("/mouse/hit").and_then(xyz).is_some()
-        },
-    );
-    let grab = s.pointer("/mouse/hit").and_then(xyz).unwrap();
-    let r = grab.iter().map(|v| v * v).sum::<f64>().sqrt();
-    assert!(
-        (r - 0.05).abs() < 1e-3,
-        "the cursor lies on the 5 cm ball: |hit| = {r}"
-    );
-    drag(
-        &x,
-        region,
-        (region.0, region.1 - 80.0),
-        Duration::from_millis(1500),
-    );
+    let grab = rope_pull_on_the_ball(&x, &state_file, &mut child, region);
 
     // Paint: a stroke across the ball's front.
-    focus();
+    focus(&x);
     x.xdotool(&["key", "4"]);
     wait_state(&state_file, &mut child, "the brush selected", tool("paint"));
     drag(
@@ -567,44 +613,12 @@ fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
     );
 
     // Export (Ctrl+E) and read the points back.
-    focus();
-    x.xdotool(&["key", "ctrl+e"]);
-    let out = dir.path().join("out");
-    let t0 = Instant::now();
-    let export = loop {
-        let found = std::fs::read_dir(&out).ok().and_then(|d| {
-            d.filter_map(|e| e.ok().map(|e| e.path())).find(|p| {
-                p.file_name()
-                    .is_some_and(|n| n.to_string_lossy().starts_with("export_"))
-                    && p.join("final_mesh.stl").exists() // written after final.ply
-            })
-        });
-        if let Some(p) = found {
-            break p;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(60),
-            "Ctrl+E exported nothing; the state: {:?}",
-            state(&state_file)
-        );
-        std::thread::sleep(Duration::from_millis(200));
-    };
+    let export = export(&x, &dir.path().join("out"), &state_file);
     let points = ply_points(&export.join("final.ply"));
     // The unsculpted ball is a 5 cm sphere at the origin: the bump is the largest outward
     // displacement of the points within 2 cm of the grabbed point. (Away from the bump and
     // the knob at (−5.5, 0, 0) cm the ball stays a 5 cm sphere: printed for comparison.)
-    let dist = |p: &[f64; 3], q: &[f64; 3]| {
-        p.iter()
-            .zip(q)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-            .sqrt()
-    };
-    let bump = points
-        .iter()
-        .filter(|(p, _)| dist(p, &grab) < 0.02)
-        .map(|(p, _)| dist(p, &[0.0; 3]) - 0.05)
-        .fold(f64::NEG_INFINITY, f64::max);
+    let bump = bump_at(&points, &grab);
     let elsewhere = points
         .iter()
         .filter(|(p, _)| dist(p, &grab) > 0.04 && dist(p, &[-0.055, 0.0, 0.0]) > 0.025)
@@ -626,7 +640,51 @@ fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
         bump * 1e3
     );
     assert!(painted >= 50, "the stroke painted {painted} points");
-    focus();
+    focus(&x);
+    x.xdotool(&["key", "ctrl+q"]);
+    wait_exit(&mut child, dir.path(), Duration::from_secs(30));
+}
+
+#[test]
+fn a_model_file_opens_scaled_into_the_scene_and_the_mouse_sculpts_it() {
+    // A user's scan: a sphere 60 mm across in millimetres, far from the origin, as a point
+    // file. `workstation view FILE` opens it 10 cm across at the origin: the 5 cm ball the
+    // demo's tools are sized for.
+    let _slot = e2e_tests::busy_slot();
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let mut scan = sim_core::sampling::Shape::Sphere { radius: 30.0 }.sample(3000, 5);
+    scan.positions
+        .iter_mut()
+        .for_each(|p| *p += glam::DVec3::new(100.0, -40.0, 250.0));
+    let model = dir.path().join("my scan.ply");
+    let file = std::fs::File::create(&model).unwrap();
+    sim_core::io::write_points_ply(std::io::BufWriter::new(file), &scan, false).unwrap();
+    let state_file = dir.path().join("state.json");
+    let mut child = view(
+        &x,
+        dir.path(),
+        &[
+            model.to_str().unwrap(),
+            "--frames",
+            "1000000",
+            "--state",
+            state_file.to_str().unwrap(),
+        ],
+    );
+    let s = wait_drawn(&state_file, &mut child);
+    assert_eq!(s.get("points").and_then(|p| p.as_f64()), Some(3000.0));
+    let region = s.get("region_centre").and_then(xy).unwrap();
+    let grab = rope_pull_on_the_ball(&x, &state_file, &mut child, region);
+    let export = export(&x, &dir.path().join("out"), &state_file);
+    let bump = bump_at(&ply_points(&export.join("final.ply")), &grab);
+    println!("mouse rope bump on a model file: {:.2} mm", bump * 1e3);
+    assert!(
+        bump >= 3e-3,
+        "the rope drag raised the surface by {:.2} mm",
+        bump * 1e3
+    );
+    focus(&x);
     x.xdotool(&["key", "ctrl+q"]);
     wait_exit(&mut child, dir.path(), Duration::from_secs(30));
 }

@@ -17,6 +17,7 @@ use anyhow::Context as _;
 use glam::{DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
 use sim_core::dynamics::NodeParams;
+use sim_core::io::Format;
 
 use crate::sculpt::script::{Generate, ObjectSpec, Op, RegionSpec, Script, ScriptError};
 
@@ -27,11 +28,78 @@ pub const DEMO_SCENE: &str = include_str!("../../../examples/live/demo.toml");
 /// The image it embosses.
 pub const DEMO_IMAGE: &[u8] = include_bytes!("../../../examples/live/ring.png");
 
-/// Read and check a scene file; errors name the file and the field.
+/// Read and check a scene file; errors name the file and the field. A point or mesh file
+/// (an extension [`Format::from_extension`] knows) opens as [`model_scene`].
 pub fn load_scene(path: &Path) -> anyhow::Result<SceneFile> {
+    let model = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .and_then(Format::from_extension);
+    if model.is_some() {
+        return model_scene(path);
+    }
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     SceneFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+/// The longest side of a model opened as a scene (m): the demo ball's diameter, which the
+/// demo's tools, material and region are sized for.
+pub const MODEL_SIZE_M: f64 = 0.1;
+
+/// Room the region leaves around a model opened as a scene, each side (m): for pulls.
+pub const MODEL_MARGIN_M: f64 = 0.02;
+
+/// The scene a point or mesh file opens in (`workstation view scan.ply`): the file is the one,
+/// sculpted object, scaled to [`MODEL_SIZE_M`] across and centred at the origin; the region is
+/// its whole box and [`MODEL_MARGIN_M`] around it; tools, material and rendering are the
+/// demo's. Its saves are in these scene metres.
+pub fn model_scene(path: &Path) -> anyhow::Result<SceneFile> {
+    let file = std::path::absolute(path)
+        .with_context(|| format!("resolving {}", path.display()))?
+        .to_str()
+        .with_context(|| format!("{}: the path is not UTF-8", path.display()))?
+        .to_owned();
+    // Output files are named after the object: keep the stem's safe characters.
+    let stem: String = path
+        .file_stem()
+        .map(|s| s.to_string_lossy())
+        .unwrap_or_default()
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let name = if stem.is_empty() {
+        "model".into()
+    } else {
+        stem
+    };
+    let mut scene =
+        SceneFile::parse(DEMO_SCENE).map_err(|e| anyhow::anyhow!("the demo scene: {e}"))?;
+    scene.phase.clear();
+    let material = scene.dynamic_object().and_then(|o| o.material.clone());
+    scene.object = vec![SceneObjectSpec {
+        name: name.clone(),
+        file: Some(file),
+        generate: None,
+        size: Some(MODEL_SIZE_M),
+        offset: [0.0; 3],
+        dynamic: Some(true),
+        material,
+    }];
+    let half = 0.5 * MODEL_SIZE_M + MODEL_MARGIN_M;
+    scene.region.object = name;
+    scene.region.min = [-half; 3];
+    scene.region.max = [half; 3];
+    scene
+        .validate()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(scene)
 }
 
 /// The largest number of phases a session may hold.
@@ -115,12 +183,15 @@ impl DeviceSpec {
 pub struct SceneObjectSpec {
     /// Name used by the region, operations and output files.
     pub name: String,
-    /// A point file (PLY, OFF, OBJ, XYZ), relative to the scene file.
+    /// A point or mesh file (PLY, OFF, OBJ, STL, XYZ), relative to the scene file.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<String>,
     /// Or an analytic shape to sample.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub generate: Option<Generate>,
+    /// With `file`: the longest side its points are scaled to, centred at the origin (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<f64>,
     /// Translation applied after loading or generating (m).
     #[serde(default)]
     pub offset: [f64; 3],
@@ -139,6 +210,7 @@ impl SceneObjectSpec {
             name: self.name.clone(),
             file: self.file.clone(),
             generate: self.generate.clone(),
+            size: self.size,
             offset: self.offset,
         }
     }

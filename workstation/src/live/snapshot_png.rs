@@ -1,4 +1,4 @@
-//! `workstation render`: a point or mesh file (PLY, OFF, OBJ, XYZ) rendered headless to a PNG
+//! `workstation render`: a point or mesh file (PLY, OFF, OBJ, STL, XYZ) rendered headless to a PNG
 //! with the live workstation's renderer, to look at what a session saved without a GUI.
 
 use std::path::PathBuf;

@@ -42,6 +42,10 @@ pub struct ObjectSpec {
     pub file: Option<String>,
     /// Or an analytic shape to sample.
     pub generate: Option<Generate>,
+    /// With `file`: scale the loaded points uniformly so their box's longest side is this
+    /// (m), centred at the origin before `offset` (a model in millimetres or any other unit).
+    #[serde(default)]
+    pub size: Option<f64>,
     /// Translation applied after loading or generating (m).
     #[serde(default)]
     pub offset: [f64; 3],

@@ -339,6 +339,7 @@ fn a_mesh_file_is_loaded_with_each_vertex_once_and_its_winding_normals() {
         name: "ball".into(),
         file: Some("ball.stl".into()),
         generate: None,
+        size: None,
         offset: [0.0; 3],
     };
     let object = super::load_object(&spec, &dir, &sim_core::FitParams::default()).unwrap();

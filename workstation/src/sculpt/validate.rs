@@ -58,6 +58,15 @@ impl Script {
                 ));
             }
             finite3(f("offset"), o.offset)?;
+            if let Some(size) = o.size {
+                if o.file.is_none() {
+                    return Err(err(
+                        f("size"),
+                        "scales a `file`; a generated shape has `generate.size`",
+                    ));
+                }
+                positive(f("size"), size)?;
+            }
             match (&o.file, &o.generate) {
                 (Some(_), None) => {}
                 (None, Some(g)) => {

@@ -22,8 +22,9 @@ pub struct RunArgs {
     /// Where and how to connect.
     #[command(flatten)]
     pub connect: crate::live::net::ConnectArgs,
-    /// The scene (TOML; see examples/live/README.md).
-    #[arg(long, value_name = "SCENE.toml")]
+    /// The scene (TOML; see examples/live/README.md), or a point or mesh file to sculpt, opened
+    /// as `workstation view` opens one.
+    #[arg(long, value_name = "SCENE.toml|MODEL")]
     pub scene: PathBuf,
     /// Where the model and frames are saved on exit.
     #[arg(long, default_value = "out/run")]

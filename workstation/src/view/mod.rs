@@ -66,9 +66,11 @@ use app::ViewApp;
 /// Arguments of `workstation view`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ViewArgs {
-    /// Scene file [default: the demo's scene, examples/live/demo.toml, without its scripted
-    /// phases].
-    #[arg(value_name = "SCENE.toml")]
+    /// Scene file, or a point or mesh file to sculpt (.ply .obj .off .stl .xyz .pwn): it opens
+    /// scaled to 10 cm across and centred, as the demo ball is, with the demo's tools and
+    /// material, the region around all of it; saves are in those scene metres [default: the
+    /// demo's scene, examples/live/demo.toml, without its scripted phases].
+    #[arg(value_name = "SCENE.toml|MODEL")]
     pub scene: Option<PathBuf>,
     /// Connect to this haptics server and feel the scene with its device. Without it the mouse
     /// is the stylus (no device, no server): the cursor rides the surface under the mouse, the

@@ -4,7 +4,7 @@ use glam::{DQuat, DVec3};
 use sim_core::csg::CsgOp;
 
 use super::*;
-use crate::live::scene_file::{SceneFile, ToolKind};
+use crate::live::scene_file::{MODEL_SIZE_M, SceneFile, ToolKind};
 use crate::live::shared::{ForceTool, InputEvent};
 use crate::sculpt::script::Op;
 
@@ -255,4 +255,58 @@ fn another_stations_csg_result_is_added_shown_and_sculpted_and_its_name_is_not_r
     let e = b.run_op(&again).unwrap_err().to_string();
     assert!(e.contains("already called"), "{e}");
     assert_eq!(b.shared_points().positions, state.positions);
+}
+
+#[test]
+fn a_model_file_opens_as_its_own_scene_scaled_to_the_demo_ball_and_centred() {
+    // A scan in millimetres, 60 across and far from the origin.
+    let dir = std::env::temp_dir().join(format!("model-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut scan = sim_core::sampling::Shape::Sphere { radius: 30.0 }.sample(1500, 3);
+    scan.positions
+        .iter_mut()
+        .for_each(|p| *p += DVec3::new(100.0, -40.0, 250.0));
+    let path = dir.join("my scan.v2.PLY");
+    let file = std::fs::File::create(&path).unwrap();
+    sim_core::io::write_points_ply(std::io::BufWriter::new(file), &scan, false).unwrap();
+    let scene = crate::live::scene_file::load_scene(&path).unwrap();
+    assert_eq!(scene.object.len(), 1);
+    assert_eq!(
+        scene.object[0].name, "my_scan_v2",
+        "output files are named after it"
+    );
+    assert_eq!(scene.region.object, "my_scan_v2");
+    let core = SimCore::new(&scene, dir.clone()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    let positions = &core.scene.objects()[0].positions;
+    let (lo, hi) = sim_core::pointset::bounds(positions).unwrap();
+    let side = (hi - lo).max_element();
+    assert!((side - MODEL_SIZE_M).abs() < 1e-12, "longest side {side}");
+    assert!(((lo + hi) * 0.5).length() < 1e-12, "centred: {lo} … {hi}");
+    // The region holds all of it with room around.
+    let (rmin, rmax) = (DVec3::from(scene.region.min), DVec3::from(scene.region.max));
+    assert!(rmin.cmplt(lo - 0.01).all() && rmax.cmpgt(hi + 0.01).all());
+}
+
+#[test]
+fn size_scales_a_file_and_only_a_file() {
+    let scene = |object: &str| {
+        SceneFile::parse(&format!(
+            "[[object]]\nname = \"a\"\n{object}\n[region]\nobject = \"a\"\nmin = [-1, -1, -1]\n\
+             max = [1, 1, 1]\nspacing = 0.1\nband = 0.2\n"
+        ))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string()
+    };
+    let msg = scene("generate = { shape = \"sphere\", size = 0.05, points = 500 }\nsize = 0.1");
+    assert!(
+        msg.contains("object[0].size") && msg.contains("generate.size"),
+        "{msg}"
+    );
+    let msg = scene("file = \"a.ply\"\nsize = -1.0");
+    assert!(
+        msg.contains("object[0].size") && msg.contains("positive"),
+        "{msg}"
+    );
 }
