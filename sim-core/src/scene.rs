@@ -16,7 +16,7 @@ use crate::dynamics::{
     DynamicGrid, DynamicsError, Integrator, NodeParams, StepError, StepReport, Stepper,
 };
 use crate::field::GlobalField;
-use crate::field::NoProgress;
+use crate::field::{NoProgress, Progress};
 use crate::follow::{
     FollowOptions, FollowReport, Follower, apply_refit, refit_moved, refit_samples,
 };
@@ -58,12 +58,23 @@ impl SceneObject {
         points: PointSet,
         fit: &FitParams,
     ) -> Result<Self, ReconstructError> {
+        Self::fit_reporting(name, points, fit, &NoProgress)
+    }
+
+    /// [`SceneObject::fit`], reporting the fit's progress (as `reconstruct` does, up to the
+    /// number of points) to `progress`: a big scan takes seconds.
+    pub fn fit_reporting(
+        name: impl Into<String>,
+        points: PointSet,
+        fit: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, ReconstructError> {
         let rec = reconstruct(
             &points,
             fit,
             NormalPolicy::Keep,
             &mut IgnoreStages,
-            &NoProgress,
+            progress,
         )?;
         let n = points.positions.len();
         Ok(Self {

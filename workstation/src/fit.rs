@@ -290,7 +290,8 @@ impl StageObserver for Timer {
     }
 }
 
-struct Bar(ProgressBar);
+/// A progress bar as the fit's progress sink.
+pub(crate) struct Bar(pub(crate) ProgressBar);
 
 impl Progress for Bar {
     fn advance(&self, n: usize) {

@@ -231,12 +231,30 @@ fn scale_to(positions: &mut [DVec3], size: f64) {
     }
 }
 
+/// Objects of at least this many points show a progress bar while they are fitted (on a
+/// terminal): a million take about ten seconds.
+pub const FIT_PROGRESS_MIN_POINTS: usize = 100_000;
+
 pub(crate) fn fit_object(
     name: String,
     points: PointSet,
     fit: &FitParams,
 ) -> anyhow::Result<SceneObject> {
-    Ok(SceneObject::fit(name, points, fit)?)
+    let n = points.len();
+    tracing::info!(object = %name, points = n, "fitting");
+    if n < FIT_PROGRESS_MIN_POINTS {
+        return Ok(SceneObject::fit(name, points, fit)?);
+    }
+    let bar = indicatif::ProgressBar::new(n as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "fitting `{name}` {{bar:40}} {{pos}}/{{len}} points ({{per_sec}})"
+        ))
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let object = SceneObject::fit_reporting(name, points, fit, &crate::fit::Bar(bar.clone()));
+    bar.finish_and_clear();
+    Ok(object?)
 }
 
 pub(crate) fn point_set(o: &SceneObject) -> PointSet {
