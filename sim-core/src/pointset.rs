@@ -3,6 +3,8 @@
 //! Contract: a `PointSet` that passed [`PointSet::validate`] has only finite coordinates and
 //! per-point arrays of matching length; a normal of zero length means "unknown, estimate it".
 
+use std::collections::HashMap;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -49,6 +51,47 @@ impl PointSet {
             normals: None,
             colors: None,
         }
+    }
+
+    /// Merge points at one position (bit for bit, +0 and −0 alike) into the first of them, in
+    /// order, unless their normals face apart (the two sides of a sheet of no thickness stay
+    /// two points). A mesh file repeats a vertex where its normals or texture split; two samples
+    /// at one place are two particles to a sculpting region and halve the neighbourhood a fit
+    /// sees. The kept point's normal is the mean of the copies' directions, its colour the
+    /// first's. Returns how many points were merged away.
+    pub fn merge_coincident(&mut self) -> usize {
+        let n = self.positions.len();
+        let mut first: HashMap<[u64; 3], usize> = HashMap::with_capacity(n);
+        let mut into: Vec<usize> = (0..n).collect();
+        for i in 0..n {
+            let j = *first.entry(position_key(self.positions[i])).or_insert(i);
+            let agree = self
+                .normals
+                .as_ref()
+                .is_none_or(|ns| ns[i].dot(ns[j]) >= 0.0);
+            if j != i && agree {
+                into[i] = j;
+            }
+        }
+        let kept: Vec<usize> = (0..n).filter(|&i| into[i] == i).collect();
+        if kept.len() == n {
+            return 0;
+        }
+        if let Some(ns) = &mut self.normals {
+            let mut sum = vec![DVec3::ZERO; n];
+            for (i, &j) in into.iter().enumerate() {
+                sum[j] += ns[i].try_normalize().unwrap_or(DVec3::ZERO);
+            }
+            *ns = kept
+                .iter()
+                .map(|&i| sum[i].try_normalize().unwrap_or(DVec3::ZERO))
+                .collect();
+        }
+        if let Some(cs) = &mut self.colors {
+            *cs = kept.iter().map(|&i| cs[i]).collect();
+        }
+        self.positions = kept.iter().map(|&i| self.positions[i]).collect();
+        n - kept.len()
     }
 
     /// Number of points.
@@ -129,6 +172,11 @@ pub fn morton_order(points: &[DVec3]) -> Vec<u32> {
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
+/// A position's key for finding exact repeats: its coordinates' bits, with −0 made +0.
+pub fn position_key(p: DVec3) -> [u64; 3] {
+    (p + DVec3::ZERO).to_array().map(f64::to_bits)
+}
+
 /// Axis-aligned bounding box of `points`; `None` when empty.
 pub fn bounds(points: &[DVec3]) -> Option<(DVec3, DVec3)> {
     let first = *points.first()?;
@@ -142,6 +190,55 @@ pub fn bounds(points: &[DVec3]) -> Option<(DVec3, DVec3)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn points_repeated_at_one_position_merge_unless_they_face_apart() {
+        let ring: Vec<DVec3> = (0..6)
+            .map(|k| DVec3::new((k as f64).cos(), (k as f64).sin(), 0.0))
+            .collect();
+        // Every point twice (the second copy tilted, as a mesh's split normals are), the
+        // first once more as −0 where it is 0, and one copy facing the other way.
+        let tilt = |n: DVec3| (n + DVec3::Z * 0.2).normalize();
+        let mut positions: Vec<DVec3> = ring.iter().chain(&ring).copied().collect();
+        let mut normals: Vec<DVec3> = ring
+            .iter()
+            .copied()
+            .chain(ring.iter().map(|&n| tilt(n)))
+            .collect();
+        positions.push(ring[1] * DVec3::new(1.0, 1.0, -1.0)); // z = −0
+        normals.push(ring[1]);
+        positions.push(ring[2]);
+        normals.push(-ring[2]);
+        let mut colors: Vec<[u8; 3]> = (0..positions.len() as u8).map(|i| [i, 0, 0]).collect();
+        colors[0] = [9, 9, 9];
+        let mut set = PointSet {
+            positions,
+            normals: Some(normals),
+            colors: Some(colors),
+        };
+        assert_eq!(set.merge_coincident(), 7);
+        let mut want = ring.clone();
+        want.push(ring[2]);
+        assert_eq!(
+            set.positions, want,
+            "the first of each, in order; the opposite one kept"
+        );
+        let normals = set.normals.as_ref().unwrap();
+        assert!((normals[0] - (ring[0] + tilt(ring[0])).normalize()).length() < 1e-12);
+        let three = ring[1] * 2.0 + tilt(ring[1]);
+        assert!((normals[1] - three.normalize()).length() < 1e-12, "−0 is 0");
+        assert_eq!(normals[6], -ring[2]);
+        assert_eq!(
+            set.colors.as_ref().unwrap()[0],
+            [9, 9, 9],
+            "the first's colour"
+        );
+        // Without normals every repeat merges; without repeats nothing changes.
+        let mut bare = PointSet::from_positions(vec![DVec3::X, DVec3::Y, DVec3::X]);
+        assert_eq!(bare.merge_coincident(), 1);
+        assert_eq!(bare.positions, vec![DVec3::X, DVec3::Y]);
+        assert_eq!(bare.merge_coincident(), 0);
+    }
 
     #[test]
     fn morton_order_is_a_permutation_that_keeps_neighbours_together() {

@@ -171,6 +171,14 @@ pub(crate) fn load_object(
                 .with_context(|| format!("opening {}", path.display()))?;
             let mut loaded = io::read(std::io::BufReader::new(f), format)?;
             loaded.normals_from_winding();
+            let merged = loaded.points.merge_coincident();
+            if merged > 0 {
+                tracing::info!(
+                    object = %spec.name,
+                    merged,
+                    "points repeated at one position merged (a mesh's split vertices)"
+                );
+            }
             loaded.points
         }
         (None, Some(g)) if g.shape.starts_with("sample:") => {

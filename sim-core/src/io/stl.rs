@@ -12,7 +12,7 @@ use glam::{DVec3, Vec3};
 
 use super::{IoError, Loaded, parse_f64};
 use crate::mesh::TriMesh;
-use crate::pointset::PointSet;
+use crate::pointset::{PointSet, position_key};
 
 /// Parse binary or ASCII STL.
 pub fn read_stl(bytes: &[u8]) -> Result<Loaded, IoError> {
@@ -78,13 +78,12 @@ pub fn read_stl(bytes: &[u8]) -> Result<Loaded, IoError> {
 /// The mesh of triangles `corners[3t..3t + 3]`, with corners at one position (bit for bit, +0
 /// and −0 alike) made one vertex.
 fn weld(corners: &[DVec3]) -> TriMesh {
-    let key = |p: DVec3| (p + DVec3::ZERO).to_array().map(f64::to_bits);
     let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(corners.len() / 4);
     let mut vertices = Vec::new();
     let index: Vec<u32> = corners
         .iter()
         .map(|&p| {
-            *first.entry(key(p)).or_insert_with(|| {
+            *first.entry(position_key(p)).or_insert_with(|| {
                 vertices.push(p);
                 vertices.len() as u32 - 1
             })
