@@ -412,7 +412,7 @@ impl Panel {
             if self.can_load {
                 ui.horizontal(|ui| {
                     ui.text_edit_singleline(&mut self.load_path)
-                        .on_hover_text("a scene file (.toml)");
+                        .on_hover_text("a scene file (.toml), or a point or mesh file to sculpt");
                     if ui.button("Load").clicked() && !self.load_path.is_empty() {
                         actions.push(Action::Load(PathBuf::from(&self.load_path)));
                     }
