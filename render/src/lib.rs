@@ -80,7 +80,10 @@ pub use image::Image;
 pub use lod::{THIN_MARGIN, thin_splats};
 pub use renderer::Renderer;
 pub use scene::{Ellipsoid, Lighting, Overlay, Splat, Style, linear_to_srgb, srgb_to_linear};
-pub use shape::{MAX_SHAPE_NEIGHBOURS, MIN_SPLAT_ASPECT, SPLAT_OVERLAP, SplatShape, splat_shape};
+pub use shape::{
+    CORNER_MARGIN, MAX_CELL_GROWTH, MAX_SHAPE_NEIGHBOURS, MIN_SPLAT_ASPECT, SPLAT_OVERLAP,
+    SplatShape, splat_shape,
+};
 pub use software::SoftwareRenderer;
 
 /// Errors of the renderer; each variant names what failed.

@@ -39,8 +39,8 @@ pub struct Splat {
     pub curvature: [f32; 3],
     /// Factor on both semi-axes where the splat faces the eye (1, or 0: none): enough to
     /// reach the corners of its point's Voronoi cell, so the gaps of a random sampling are
-    /// covered ([`splat_shape`]). Applied fully where the eye is within ~53° of the normal and
-    /// not at all beyond ~73° ([`crate::ewa`]): grown splats near an outline would reach
+    /// covered ([`splat_shape`](crate::splat_shape)). Applied fully where the eye is within ~53° of the normal and
+    /// not at all beyond ~73° (the `ewa` module): grown splats near an outline would reach
     /// further past it. Keeps the struct 64 bytes, four 16-byte rows for the GPU.
     pub cell_growth: f32,
 }

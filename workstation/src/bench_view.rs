@@ -1,9 +1,10 @@
 //! `workstation bench-view`: big scans end to end (issue 19). For each point count, a dense
 //! sampling of a mesh (the bunny by default) is loaded and fitted as a live session's object,
 //! then sculpted by a scripted hand on the real threads: the simulation thread
-//! ([`crate::live::sim::run`]), a force-mapping thread at 1 kHz ([`ForceMapper`] on a scripted
-//! cursor, no network) and a renderer thread that prepares splats ([`SplatCache`]) for every
-//! new snapshot, and optionally draws them headless.
+//! ([`crate::live::sim::run`]), a force-mapping thread at 1 kHz
+//! ([`ForceMapper`](crate::live::force::ForceMapper) on a scripted cursor, no network) and a
+//! renderer thread that prepares splats ([`SplatCache`](crate::live::frames::SplatCache)) for
+//! every new snapshot, and optionally draws them headless.
 //!
 //! Every count is measured against a baseline scene (7,000 points by default) with the same
 //! mesh, region, tools and strokes in the same run, so ratios compare like with like on a

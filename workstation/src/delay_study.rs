@@ -183,7 +183,7 @@ fn validate(args: &DelayStudyArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Run the whole study (no files written; see [`write`]).
+/// Run the whole study (no files written; see [`write()`]).
 pub fn study(
     args: &DelayStudyArgs,
     bar: &ProgressBar,

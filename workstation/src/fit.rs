@@ -371,7 +371,7 @@ const FIT_REGULARIZATION: f64 = 3e-4;
 /// bunny's max grows.
 const FIT_NORMAL_WEIGHT: f64 = 0.25;
 
-/// Run `fit` and return the report (printing is the caller's choice; see [`print`]).
+/// Run `fit` and return the report (printing is the caller's choice; see [`print()`]).
 pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
     anyhow::ensure!(
         args.surface_samples <= MAX_SURFACE_SAMPLES,

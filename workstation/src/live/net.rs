@@ -9,7 +9,7 @@
 //! sees cursors and watches their silence through `NetStats::last_cursor_ns`); on QUIC this
 //! thread answers every cursor quinn delivers itself ([`Answer::Inline`]: quinn's drivers run
 //! on its runtime, so the cursor's arrival and the command's departure wake this thread alone). Then, concurrently: a `ClockPing` every 100 ms feeds
-//! a [`ClockEstimator`] (offset and its bound in [`NetStats`](super::shared::NetStats)); the
+//! a [`ClockEstimator`] (offset and its bound in [`NetStats`]); the
 //! server's periodic `Stats` give the cursor → force round trip it measured. When the session
 //! ends (server gone or restarted, connection lost, no cursor for [`CURSOR_SILENCE`]) the force
 //! thread is told to drop its sender and the loop reconnects with backoff (100 ms doubling to
@@ -163,7 +163,7 @@ impl ConnectionFile {
 /// the `--config` file.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct ConnectArgs {
-    /// The connection as a TOML file ([server] address, transport, cert, client_cert,
+    /// The connection as a TOML file (`[server]` address, transport, cert, client_cert,
     /// client_key; see deploy/examples/lab-workstation.toml); flags override it.
     #[arg(long, value_name = "FILE")]
     pub config: Option<std::path::PathBuf>,
