@@ -179,6 +179,14 @@ pub(crate) fn load_object(
                     "points repeated at one position merged (a mesh's split vertices)"
                 );
             }
+            if loaded.points.len() < FEW_POINTS {
+                tracing::warn!(
+                    object = %spec.name,
+                    points = loaded.points.len(),
+                    "too few points for a surface (under {FEW_POINTS}): the object shows \
+                     and feels little or nothing"
+                );
+            }
             loaded.points
         }
         (None, Some(g)) if g.shape.starts_with("sample:") => {
@@ -238,6 +246,10 @@ fn scale_to(positions: &mut [DVec3], size: f64) {
         *p = (*p - centre) * k;
     }
 }
+
+/// A file with fewer points than this (after merging repeats) is loaded with a warning: each
+/// local fit takes its 20 nearest points, and a generated shape needs 50.
+pub const FEW_POINTS: usize = 50;
 
 /// Objects of at least this many points show a progress bar while they are fitted (on a
 /// terminal): a million take about ten seconds.
