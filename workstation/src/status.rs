@@ -13,6 +13,8 @@ pub fn print() {
         }
     );
     println!("try: workstation demo            (the networked demo on a fake device)");
+    println!("     workstation view            (the window; the mouse is the stylus)");
+    println!("     workstation view MODEL      (sculpt your own .ply .obj .off .stl .xyz)");
     println!("     workstation run --help      (against a haptics server)");
     println!("commands: run `workstation --help`");
 }
