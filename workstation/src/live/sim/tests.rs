@@ -277,7 +277,18 @@ fn a_model_file_opens_as_its_own_scene_scaled_to_the_demo_ball_and_centred() {
     );
     assert_eq!(scene.region.object, "my_scan_v2");
     let core = SimCore::new(&scene, dir.clone()).unwrap();
+    // Saved, it reloads as an ordinary scene in those scene metres.
+    let saved = core.save_scene(&dir.join("saved")).unwrap();
+    let again = SimCore::new(
+        &crate::live::scene_file::load_scene(&saved).unwrap(),
+        dir.join("saved"),
+    )
+    .unwrap();
     let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(
+        again.scene.objects()[0].positions,
+        core.scene.objects()[0].positions
+    );
     let positions = &core.scene.objects()[0].positions;
     let (lo, hi) = sim_core::pointset::bounds(positions).unwrap();
     let side = (hi - lo).max_element();
