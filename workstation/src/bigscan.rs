@@ -43,14 +43,7 @@ pub fn sample_mesh(mesh: &TriMesh, n: usize, seed: u64, size: Option<f64>) -> Po
     } else {
         mesh.vertex_normals()
     };
-    let (lo, hi) = sim_core::pointset::bounds(&mesh.vertices).unwrap_or((DVec3::ZERO, DVec3::ONE));
-    let (centre, scale) = match size {
-        Some(s) => (
-            0.5 * (lo + hi),
-            s / (hi - lo).max_element().max(f64::MIN_POSITIVE),
-        ),
-        None => (DVec3::ZERO, 1.0),
-    };
+    let (centre, scale) = size.map_or((DVec3::ZERO, 1.0), |s| scaling_to(&mesh.vertices, s));
     let mut cumulative = Vec::with_capacity(mesh.triangles.len());
     let mut total = 0.0;
     for t in &mesh.triangles {
@@ -91,6 +84,17 @@ pub fn sample_mesh(mesh: &TriMesh, n: usize, seed: u64, size: Option<f64>) -> Po
     }
     spatial_order(&mut out);
     out
+}
+
+/// The centre and factor that map `points` by `(p − centre) · factor` so their bounding box is
+/// centred at the origin with its longest side `size`: its centre and `size` over that side. A
+/// set with no extent is only moved (factor 1); an empty one is left as it is.
+pub fn scaling_to(points: &[DVec3], size: f64) -> (DVec3, f64) {
+    let Some((lo, hi)) = sim_core::pointset::bounds(points) else {
+        return (DVec3::ZERO, 1.0);
+    };
+    let side = (hi - lo).max_element();
+    (0.5 * (lo + hi), if side > 0.0 { size / side } else { 1.0 })
 }
 
 /// Sort `points` (and their normals and colours) along a Morton curve over their bounding box.

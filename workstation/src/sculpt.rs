@@ -224,7 +224,11 @@ pub(crate) fn load_object(
         (None, None) => anyhow::bail!("no `file` or `generate`"),
     };
     if let Some(size) = spec.size {
-        scale_to(&mut points.positions, size);
+        let (centre, factor) = crate::bigscan::scaling_to(&points.positions, size);
+        points
+            .positions
+            .iter_mut()
+            .for_each(|p| *p = (*p - centre) * factor);
     }
     let offset = DVec3::from(spec.offset);
     points.positions.iter_mut().for_each(|p| *p += offset);
@@ -232,19 +236,6 @@ pub(crate) fn load_object(
         crate::bigscan::spatial_order(&mut points);
     }
     fit_object(spec.name.clone(), points, fit)
-}
-
-/// Scale `positions` uniformly about their box's centre so its longest side is `size`, and
-/// move that centre to the origin. A set with no extent is only moved.
-fn scale_to(positions: &mut [DVec3], size: f64) {
-    let Some((lo, hi)) = sim_core::pointset::bounds(positions) else {
-        return;
-    };
-    let (centre, side) = ((lo + hi) * 0.5, (hi - lo).max_element());
-    let k = if side > 0.0 { size / side } else { 1.0 };
-    for p in positions {
-        *p = (*p - centre) * k;
-    }
 }
 
 /// A file with fewer points than this (after merging repeats) is loaded with a warning: each
