@@ -31,7 +31,9 @@ pub struct SplatShape {
 
 /// The elliptical splat of the point `position` with unit `normal`, from the positions of its
 /// nearest neighbours (any order; the point itself, if among them, is skipped; pass 10–16:
-/// anisotropic sampling needs the neighbours in the sparse direction to be among them).
+/// anisotropic sampling needs the neighbours in the sparse direction to be among them; and
+/// only those on the point's own side of a part thinner than their spacing: the far side's
+/// heights would read as a curvature of one over the thickness).
 ///
 /// The rule, in the tangent plane of `normal`:
 /// 1. the **ring**: neighbours taken nearest first, each kept unless a kept one lies inside or on

@@ -5,8 +5,9 @@
 //! splats and overlays.
 //!
 //! Points become elliptical surface splats in the plane of their normals, sized and stretched by
-//! their 12 nearest neighbours (`render::splat_shape`; recomputed only for the points that
-//! moved, appeared or disappeared and their neighbours: [`SplatCache`]), in their colours;
+//! their 12 nearest neighbours on their own side of a thin part (`render::splat_shape`;
+//! recomputed only for the points that moved, turned, appeared or disappeared and their
+//! neighbours: [`SplatCache`]), in their colours;
 //! overlays: the probe (when the probe is the tool), the haptic cursor, the sculpting region
 //! box and the contact force arrow.
 
@@ -26,10 +27,10 @@ use super::shared::{RenderSnapshot, Shared};
 /// Length of the drawn force arrow per newton (m/N).
 pub const ARROW_M_PER_N: f64 = 0.05;
 
-/// Splat shapes of `positions` from scratch (every point's [`NeighbourShape`], k-d tree, no
-/// index kept): what [`SplatUpdate::Full`] recomputes whenever anything moved.
-pub fn splat_shapes(positions: &[glam::DVec3]) -> Vec<NeighbourShape> {
-    shapes_and_reach(positions).0
+/// Splat shapes of `positions` with `normals` from scratch (every point's [`NeighbourShape`],
+/// k-d tree, no index kept): what [`SplatUpdate::Full`] recomputes whenever anything moved.
+pub fn splat_shapes(positions: &[DVec3], normals: &[DVec3]) -> Vec<NeighbourShape> {
+    shapes_and_reach(positions, normals).0
 }
 
 /// How a [`SplatCache`] keeps the radii up to date.
@@ -133,11 +134,11 @@ impl SplatCache {
             if !first && self.seen.get(j) == Some(&(s, c.id)) {
                 continue;
             }
-            let pos = self.neighbours.positions();
+            let (pos, normals) = (self.neighbours.positions(), self.neighbours.normals());
             for (k, p) in c.positions.iter().enumerate() {
                 let i = s + k;
-                if i >= old || pos[i] != *p {
-                    self.edits.set.push((i as u32, *p));
+                if i >= old || pos[i] != *p || normals[i] != c.normals[k] {
+                    self.edits.set.push((i as u32, *p, c.normals[k]));
                 } else {
                     let want = splat(*p, c.normals[k], c.colors[k], &self.neighbours.shapes()[i]);
                     if want != self.splats[i] {
@@ -216,7 +217,8 @@ impl SplatCache {
         let mut work = SplatWork::default();
         if changed {
             let pos: Vec<DVec3> = points.positions().copied().collect();
-            self.full_shapes = splat_shapes(&pos);
+            let normals: Vec<DVec3> = points.normals().copied().collect();
+            self.full_shapes = splat_shapes(&pos, &normals);
             self.seen = vec![key];
             work = SplatWork {
                 moved: pos.len(),
@@ -526,7 +528,7 @@ mod tests {
     }
 
     #[test]
-    fn incremental_splats_equal_a_full_recompute_after_moves_insertions_and_deletions() {
+    fn incremental_splats_equal_a_full_recompute_after_moves_turns_insertions_and_deletions() {
         let mut p = ring(20_000);
         let mut n = vec![DVec3::Z; p.len()];
         let mut c = vec![[10u8, 20, 30]; p.len()];
@@ -541,8 +543,8 @@ mod tests {
         };
         let snap = publish(&mut publisher, &p, &n, &c);
         inc.update(&snap);
-        for round in 0..6 {
-            match round % 3 {
+        for round in 0..8 {
+            match round % 4 {
                 // Moves: a bump around one place (and a recolour elsewhere).
                 0 => {
                     let centre = p[round * 100];
@@ -565,6 +567,18 @@ mod tests {
                         publisher.mark(0, p.len() - 1);
                     }
                 }
+                // Turns in place: a few normals flipped (the other side of a sheet) or tilted.
+                2 => {
+                    for k in 0..40 {
+                        let j = 17 + k * 389;
+                        n[j] = if k % 2 == 0 {
+                            -n[j]
+                        } else {
+                            (n[j] + DVec3::X).normalize()
+                        };
+                        publisher.mark(0, j);
+                    }
+                }
                 // Deletions by swap-remove.
                 _ => {
                     for k in 0..25 {
@@ -582,7 +596,7 @@ mod tests {
             let mut full = SplatCache::new(SplatUpdate::Full);
             full.update(&snap);
             assert_eq!(inc.current(), full.current(), "round {round}");
-            let shapes = splat_shapes(&p);
+            let shapes = splat_shapes(&p, &n);
             assert!(
                 inc.current()
                     .iter()

@@ -1,22 +1,24 @@
 //! Per-point data derived from each point's nearest neighbours (the elliptical splat, from the
-//! [`K`] nearest: [`NeighbourShape`]), kept up to date incrementally as points move, appear and
-//! disappear.
+//! [`K`] nearest: [`NeighbourShape`]), kept up to date incrementally as points move, turn,
+//! appear and disappear.
 //!
 //! [`NeighbourCache::rebuild`] computes every point's [`NeighbourShape`] with the k-d tree (in
 //! parallel) and indexes the points twice: in a hash grid of cells two typical radii wide (for
 //! neighbour searches) and by reach, on levels of cells that double in size (for "whose ball
-//! holds this place"); [`NeighbourCache::update`] then applies [`Edits`] in O(changed points · neighbours): a
-//! point's shape depends only on the points inside its ball of radius `reach` (its K-th
-//! neighbour distance), so only points whose ball a changed point left or entered, and the
-//! changed points themselves, are recomputed, by a ring search of the grid. The k-d tree is
-//! never rebuilt on this path.
+//! holds this place"); [`NeighbourCache::update`] then applies [`Edits`] in O(changed points ·
+//! neighbours): a point's shape depends only on its own normal and the positions and normals
+//! of the points inside its ball of radius `reach` (the distance to the farthest of the
+//! [`SEARCH`] nearest, by position),
+//! so only points whose ball a changed point left, entered or turned in, and the changed points
+//! themselves, are recomputed, by a ring search of the grid. The k-d tree is never rebuilt on
+//! this path.
 //!
 //! The shape is the one place that reads the neighbours ([`NeighbourShape::from_nearest`]): its
-//! ball is the K-th neighbour's, so the incremental rule above holds for it.
+//! ball is the one its search reached, so the incremental rule above holds for it.
 //!
 //! Contract: after any sequence of updates the shapes equal a [`NeighbourCache::rebuild`] of
-//! the same positions (the tests compare bit for bit). Large edits (over a quarter of the
-//! points) fall back to a rebuild.
+//! the same positions and normals (the tests compare bit for bit). Large edits (over a quarter
+//! of the points) fall back to a rebuild.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -29,6 +31,10 @@ use sim_core::knn::PointIndex;
 /// [`render::splat_shape`] asks for, so the neighbours across the sparse direction of an
 /// anisotropic sampling (a scan's rows) are among them.
 pub const K: usize = 12;
+
+/// Nearest points a shape's search asks for, the point itself included: one more than the
+/// shape uses ([`NeighbourShape::from_nearest`]).
+pub const SEARCH: usize = K + 2;
 
 /// Radius of every point when there are at most [`K`] points (no K-th neighbour), m.
 pub const LONE_RADIUS: f32 = 1e-3;
@@ -85,22 +91,44 @@ impl NeighbourShape {
         }
     }
 
-    /// The shape of a point from its `K + 1` nearest points (itself included), nearest first,
-    /// as `(index, distance)`; `positions` are all points. The tangent plane is the
-    /// neighbours' own (the least principal axis of their spread about the point), so the
-    /// shape depends on positions only and the cache's incremental rule holds; the renderer
-    /// lays the axis into the plane of the point's actual normal. Degenerate neighbourhoods
-    /// (collinear, coincident) fall back to a disk through the K-th neighbour.
-    pub fn from_nearest(p: DVec3, nearest: &[(u32, f64)], positions: &[DVec3]) -> Self {
-        let disk = Self::disk(
-            nearest
-                .last()
-                .map_or(f64::from(LONE_RADIUS), |x| x.1.max(1e-6)) as f32,
-        );
+    /// The shape of point `p` with normal `n` from its [`SEARCH`] nearest points (itself
+    /// included), nearest first, as `(index, distance)`; `positions` and `normals` are all
+    /// points'. It uses the neighbours strictly nearer than the last one given, at most [`K`]:
+    /// the same set whichever of several equally far points a search returned last (two
+    /// coincident points facing apart, a sheet of no thickness, would otherwise give a shape
+    /// that depends on the search's order). Only neighbours on the point's own sheet count: one whose normal faces away
+    /// from `n` (the other side of a part thinner than the spacing, an ear or a blade) would
+    /// tilt the plane across the part and read its thickness as curvature, and the splat would
+    /// stand out of the surface as a petal ([`on_own_sheet`]). The tangent plane is the kept
+    /// neighbours' own (the least principal axis of their spread about the point); the
+    /// renderer lays the axis into the plane of the point's actual normal. Degenerate
+    /// neighbourhoods (collinear, coincident, all facing away) fall back to a disk through the
+    /// farthest neighbour used.
+    pub fn from_nearest(
+        p: DVec3,
+        n: DVec3,
+        nearest: &[(u32, f64)],
+        positions: &[DVec3],
+        normals: &[DVec3],
+    ) -> Self {
+        let bound = match nearest.last() {
+            Some(&(_, d)) if nearest.len() >= SEARCH => d,
+            _ => f64::INFINITY,
+        };
+        let used = || nearest.iter().filter(|x| x.1 > 0.0 && x.1 < bound).take(K);
+        let far = used().map(|x| x.1).fold(0.0, f64::max);
+        let disk = Self::disk(if far > 0.0 {
+            far
+        } else {
+            f64::from(LONE_RADIUS)
+        } as f32);
         let mut neighbours = [[0.0f32; 3]; K];
         let mut count = 0;
         let mut cov = glam::DMat3::ZERO;
-        for &(j, _) in nearest.iter().filter(|x| x.1 > 0.0).take(K) {
+        for &(j, _) in used() {
+            if !on_own_sheet(n, normals[j as usize]) {
+                continue;
+            }
             let d = positions[j as usize] - p;
             cov += glam::DMat3::from_cols(d * d.x, d * d.y, d * d.z);
             neighbours[count] = positions[j as usize].as_vec3().to_array();
@@ -124,9 +152,17 @@ impl NeighbourShape {
     }
 }
 
-/// Every point's shape and reach (its K-th neighbour's distance) from scratch, with a k-d tree
+/// Whether a neighbour with normal `m` is on the sheet of a point with normal `n`: it does not
+/// face away (`n·m ≥ 0`; a zero or non-finite normal faces nowhere and keeps every neighbour).
+/// Two sides of a part thinner than the spacing face apart; a rim between them is 90° from both
+/// and still belongs to each.
+pub fn on_own_sheet(n: DVec3, m: DVec3) -> bool {
+    n.dot(m) >= 0.0 || !n.dot(m).is_finite()
+}
+
+/// Every point's shape and reach (the farthest of its [`SEARCH`] nearest) from scratch, with a k-d tree
 /// on all cores; at most [`K`] points: lone disks of unbounded reach.
-pub fn shapes_and_reach(positions: &[DVec3]) -> (Vec<NeighbourShape>, Vec<f64>) {
+pub fn shapes_and_reach(positions: &[DVec3], normals: &[DVec3]) -> (Vec<NeighbourShape>, Vec<f64>) {
     if positions.len() <= K {
         return (
             vec![NeighbourShape::disk(LONE_RADIUS); positions.len()],
@@ -137,26 +173,32 @@ pub fn shapes_and_reach(positions: &[DVec3]) -> (Vec<NeighbourShape>, Vec<f64>) 
     positions
         .par_iter()
         .with_min_len(1024)
-        .map(|&p| {
+        .zip(normals)
+        .map(|(&p, &n)| {
             let near: Vec<(u32, f64)> = tree
-                .nearest_k(p, K + 1)
+                .nearest_k(p, SEARCH)
                 .into_iter()
                 .map(|(j, d)| (j as u32, d))
                 .collect();
             let reach = near.last().map_or(0.0, |x| x.1);
-            (NeighbourShape::from_nearest(p, &near, positions), reach)
+            (
+                NeighbourShape::from_nearest(p, n, &near, positions, normals),
+                reach,
+            )
         })
         .unzip()
 }
 
-/// Changes to apply: the new point count and the new positions of the points that changed.
-/// Points at or beyond `len` are removed; every index in `old len..len` must be in `set`.
+/// Changes to apply: the new point count and the new positions and normals of the points that
+/// changed. Points at or beyond `len` are removed; every index in `old len..len` must be in
+/// `set`.
 #[derive(Debug, Clone, Default)]
 pub struct Edits {
     /// New number of points.
     pub len: usize,
-    /// `(index, new position)` of moved or appended points (indices below `len`).
-    pub set: Vec<(u32, DVec3)>,
+    /// `(index, new position, new normal)` of moved, turned or appended points (indices below
+    /// `len`).
+    pub set: Vec<(u32, DVec3, DVec3)>,
 }
 
 #[derive(Default)]
@@ -349,8 +391,11 @@ impl ReachIndex {
 #[derive(Debug, Default)]
 pub struct NeighbourCache {
     positions: Vec<DVec3>,
+    /// Normals, which pick the neighbours on each point's own sheet.
+    normals: Vec<DVec3>,
     shapes: Vec<NeighbourShape>,
-    /// Distance to the K-th neighbour (the ball the shape depends on); `inf` with ≤ K points.
+    /// Distance to the farthest of the [`SEARCH`] nearest (the ball the shape depends on);
+    /// `inf` with ≤ K points.
     reach: Vec<f64>,
     /// Positions by place, for neighbour searches.
     index: CellIndex,
@@ -369,6 +414,11 @@ impl NeighbourCache {
         &self.positions
     }
 
+    /// Normals the shapes are for.
+    pub fn normals(&self) -> &[DVec3] {
+        &self.normals
+    }
+
     /// Shapes, one per point.
     pub fn shapes(&self) -> &[NeighbourShape] {
         &self.shapes
@@ -384,14 +434,16 @@ impl NeighbourCache {
         self.rebuilds
     }
 
-    /// Recompute every shape for `positions` (k-d tree, all cores) and re-index.
-    pub fn rebuild(&mut self, positions: Vec<DVec3>) {
+    /// Recompute every shape for `positions` and `normals` (k-d tree, all cores) and re-index.
+    pub fn rebuild(&mut self, positions: Vec<DVec3>, normals: Vec<DVec3>) {
+        assert_eq!(positions.len(), normals.len(), "a normal per position");
         self.rebuilds += 1;
         let n = positions.len();
         self.positions = positions;
+        self.normals = normals;
         self.marked = vec![0; n];
         self.epoch = 0;
-        (self.shapes, self.reach) = shapes_and_reach(&self.positions);
+        (self.shapes, self.reach) = shapes_and_reach(&self.positions, &self.normals);
         if n <= K {
             self.index = CellIndex::default();
             self.balls = ReachIndex::default();
@@ -424,11 +476,14 @@ impl NeighbourCache {
         let big = 4 * (edits.set.len() + removed) > new.max(old);
         if old <= K || new <= K || big || self.rebuilds == 0 {
             let mut p = std::mem::take(&mut self.positions);
+            let mut n = std::mem::take(&mut self.normals);
             p.resize(new, DVec3::NAN);
-            for &(i, x) in &edits.set {
+            n.resize(new, DVec3::NAN);
+            for &(i, x, m) in &edits.set {
                 p[i as usize] = x;
+                n[i as usize] = m;
             }
-            self.rebuild(p);
+            self.rebuild(p, n);
             self.affected = (0..new as u32).collect();
             return &self.affected;
         }
@@ -446,15 +501,18 @@ impl NeighbourCache {
             places.push(p);
         }
         self.positions.truncate(new);
+        self.normals.truncate(new);
         self.shapes.truncate(new);
         self.reach.truncate(new);
         self.positions.resize(new, DVec3::NAN);
+        self.normals.resize(new, DVec3::NAN);
         self.shapes.resize(new, NeighbourShape::default());
         self.reach.resize(new, f64::INFINITY);
         self.marked.resize(new, 0);
         self.affected.clear();
-        for &(i, x) in &edits.set {
+        for &(i, x, m) in &edits.set {
             let iu = i as usize;
+            self.normals[iu] = m;
             if iu < old {
                 let was = self.positions[iu];
                 self.index.remove(i, was);
@@ -489,15 +547,18 @@ impl NeighbourCache {
         // Recompute the affected shapes against the updated index.
         // On this thread unless the work is large: the shared worker pool is busy with the
         // simulation's points, and waiting for it costs more than a few thousand searches.
-        let (index, pos) = (&self.index, &self.positions);
+        let (index, pos, normals) = (&self.index, &self.positions, &self.normals);
         let one = |near: &mut Vec<(u32, f64)>, q: u32| {
-            let p = pos[q as usize];
-            index.nearest(p, K + 1, pos, near);
+            let (p, n) = (pos[q as usize], normals[q as usize]);
+            index.nearest(p, SEARCH, pos, near);
             let reach = near.last().map_or(0.0, |x| x.1);
-            (NeighbourShape::from_nearest(p, near, pos), reach)
+            (
+                NeighbourShape::from_nearest(p, n, near, pos, normals),
+                reach,
+            )
         };
         let fresh: Vec<(NeighbourShape, f64)> = if self.affected.len() < PARALLEL_FROM {
-            let mut near = Vec::with_capacity(K + 1);
+            let mut near = Vec::with_capacity(SEARCH);
             self.affected.iter().map(|&q| one(&mut near, q)).collect()
         } else {
             self.affected
@@ -560,90 +621,171 @@ mod tests {
             .collect()
     }
 
-    fn full(p: &[DVec3]) -> Vec<NeighbourShape> {
+    /// The outward normals of points on a sphere about the origin.
+    fn outward(p: &[DVec3]) -> Vec<DVec3> {
+        p.iter().map(|x| x.normalize_or(DVec3::Z)).collect()
+    }
+
+    fn full(p: &[DVec3], n: &[DVec3]) -> Vec<NeighbourShape> {
         let mut c = NeighbourCache::default();
-        c.rebuild(p.to_vec());
+        c.rebuild(p.to_vec(), n.to_vec());
         c.shapes().to_vec()
     }
 
-    fn apply(p: &mut Vec<DVec3>, e: &Edits) {
+    fn apply(p: &mut Vec<DVec3>, n: &mut Vec<DVec3>, e: &Edits) {
         p.resize(e.len, DVec3::NAN);
-        for &(i, x) in &e.set {
+        n.resize(e.len, DVec3::NAN);
+        for &(i, x, m) in &e.set {
             p[i as usize] = x;
+            n[i as usize] = m;
         }
     }
 
     #[test]
-    fn incremental_shapes_equal_a_full_recompute_after_moves_insertions_and_deletions() {
+    fn incremental_shapes_equal_a_full_recompute_after_moves_turns_insertions_and_deletions() {
         let mut p = sphere(5000, 1);
+        let mut n = outward(&p);
         let mut c = NeighbourCache::default();
-        c.rebuild(p.clone());
-        assert_eq!(c.shapes(), full(&p));
+        c.rebuild(p.clone(), n.clone());
+        assert_eq!(c.shapes(), full(&p, &n));
         let mut rng = Rng(7);
-        for round in 0..12 {
-            let n = p.len();
+        for round in 0..15 {
+            let len = p.len();
             let mut e = Edits {
-                len: n,
+                len,
                 set: Vec::new(),
             };
-            match round % 4 {
+            match round % 5 {
                 // A bump: points near the pole pushed out along the normal.
                 0 => {
                     for (i, x) in p.iter().enumerate() {
                         let d = x.distance(DVec3::new(0.0, 0.0, 0.05));
                         if d < 0.015 {
-                            e.set.push((i as u32, *x * (1.0 + 0.2 * (1.0 - d / 0.015))));
+                            let y = *x * (1.0 + 0.2 * (1.0 - d / 0.015));
+                            e.set.push((i as u32, y, y.normalize()));
                         }
                     }
                 }
-                // Insertions near random points (and a duplicate).
+                // Insertions near random points (a duplicate, and some facing inward: the
+                // other side of a sheet, which their neighbours must leave out).
                 1 => {
                     for k in 0..50 {
-                        let j = rng.below(n);
+                        let j = rng.below(len);
                         let off = DVec3::new(rng.range(-1e-3, 1e-3), 0.0, 1e-4);
                         let x = if k == 0 { p[j] } else { p[j] + off };
-                        e.set.push(((n + k) as u32, x));
+                        let m = if k % 3 == 0 { -n[j] } else { n[j] };
+                        e.set.push(((len + k) as u32, x, m));
                     }
-                    e.len = n + 50;
+                    e.len = len + 50;
                 }
                 // Deletions: swap-remove style (the last points move into the holes), then
                 // the tail is cut.
                 2 => {
                     for k in 0..40 {
-                        let hole = rng.below(n - 40);
-                        e.set.push((hole as u32, p[n - 1 - k]));
+                        let hole = rng.below(len - 40);
+                        e.set.push((hole as u32, p[len - 1 - k], n[len - 1 - k]));
                     }
                     e.set.sort_by_key(|x| x.0);
                     e.set.dedup_by_key(|x| x.0);
-                    e.len = n - 40;
+                    e.len = len - 40;
+                }
+                // Turns without moves: normals flipped or tilted in place.
+                3 => {
+                    for k in 0..60 {
+                        let j = rng.below(len);
+                        let m = if k % 2 == 0 {
+                            -n[j]
+                        } else {
+                            (n[j] + DVec3::new(0.3, -0.2, 0.1)).normalize()
+                        };
+                        e.set.push((j as u32, p[j], m));
+                    }
+                    e.set.sort_by_key(|x| x.0);
+                    e.set.dedup_by_key(|x| x.0);
                 }
                 // Random jitter of scattered points (far-apart changes).
                 _ => {
                     for _ in 0..100 {
-                        let j = rng.below(n);
-                        e.set.push((j as u32, p[j] * rng.range(0.98, 1.02)));
+                        let j = rng.below(len);
+                        e.set.push((j as u32, p[j] * rng.range(0.98, 1.02), n[j]));
                     }
                     e.set.sort_by_key(|x| x.0);
                     e.set.dedup_by_key(|x| x.0);
                 }
             }
-            apply(&mut p, &e);
+            apply(&mut p, &mut n, &e);
             let affected = c.update(&e).len();
+            // Each place a point left or entered lies in about SEARCH balls (as many as a ball
+            // holds points), so the work is O(changed points · neighbours), not O(points).
+            let places = 2 * e.set.len() + len.saturating_sub(e.len);
             assert!(
-                affected < p.len() / 4,
-                "round {round}: {affected} recomputed"
+                affected <= 2 * SEARCH * places && affected < p.len() / 3,
+                "round {round}: {affected} recomputed for {places} places"
             );
             assert_eq!(c.positions(), &p[..]);
-            assert_eq!(c.shapes(), full(&p), "round {round}");
+            assert_eq!(c.shapes(), full(&p, &n), "round {round}");
         }
         assert_eq!(c.rebuilds(), 1, "no fallback to a rebuild");
+    }
+
+    /// A thin oblate ellipsoid (a leaf: semi-axes 40 × 25 × 1.5 mm) sampled by `n` points
+    /// from a fixed golden-ratio spiral, with its outward normals.
+    fn leaf(n: usize) -> (Vec<DVec3>, Vec<DVec3>) {
+        let axes = DVec3::new(0.04, 0.025, 0.0015);
+        (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let a = i as f64 * 0.618_033_988_75 * std::f64::consts::TAU;
+                let r = (1.0 - z * z).sqrt();
+                let u = DVec3::new(r * a.cos(), r * a.sin(), z);
+                (u * axes, (u / axes).normalize())
+            })
+            .unzip()
+    }
+
+    /// Where a part is thinner than the spacing of its points (a 3 mm leaf sampled every
+    /// 3–5 mm, like the coarse bunny's ears), the points of the far side are among each point's
+    /// nearest. Taken in, they tilted the plane across the part (the splat then stood on edge,
+    /// a petal) and their height read as a curvature of hundreds per metre (lumpy shading).
+    #[test]
+    fn a_splat_on_a_part_thinner_than_the_spacing_is_shaped_by_its_own_side() {
+        let (p, n) = leaf(600);
+        let mut c = NeighbourCache::default();
+        c.rebuild(p.clone(), n.clone());
+        let (mut inner, mut far_side_near) = (0, 0);
+        for ((x, m), s) in p.iter().zip(&n).zip(c.shapes()) {
+            // The flat middle of either face, where the leaf bends by less than 3/m.
+            if (x.x / 0.04).powi(2) + (x.y / 0.025).powi(2) > 0.5 {
+                continue;
+            }
+            inner += 1;
+            let mut near = vec![];
+            for (j, y) in p.iter().enumerate() {
+                if y != x && y.distance(*x) <= f64::from(s.radius) && n[j].dot(*m) < 0.0 {
+                    near.push(j);
+                }
+            }
+            far_side_near += usize::from(!near.is_empty());
+            let plane = DVec3::from(s.plane_normal.map(f64::from));
+            assert!(
+                plane.dot(*m).abs() > 0.99,
+                "{x}: plane {plane} across the leaf"
+            );
+            let k = s.curvature.iter().fold(0f32, |a, k| a.max(k.abs()));
+            assert!(k < 30.0, "{x}: curvature {k}/m on a face bending by < 3/m");
+        }
+        assert!(inner > 100, "{inner} points in the middle");
+        assert!(
+            far_side_near > inner / 2,
+            "the far side is within the splats' reach: {far_side_near} of {inner}"
+        );
     }
 
     #[test]
     fn few_points_get_the_lone_radius_and_growing_past_k_computes_radii() {
         let mut c = NeighbourCache::default();
         let p = sphere(4, 3);
-        c.rebuild(p.clone());
+        c.rebuild(p.clone(), outward(&p));
         assert!(c.shapes().iter().all(|s| s.radius == LONE_RADIUS));
         let more = sphere(20, 4);
         let e = Edits {
@@ -651,11 +793,11 @@ mod tests {
             set: more
                 .iter()
                 .enumerate()
-                .map(|(i, &x)| (i as u32, x))
+                .map(|(i, &x)| (i as u32, x, x.normalize()))
                 .collect(),
         };
         c.update(&e);
-        assert_eq!(c.shapes(), full(&more));
+        assert_eq!(c.shapes(), full(&more, &outward(&more)));
         assert!(c.shapes().iter().all(|s| s.radius != LONE_RADIUS));
     }
 
@@ -675,7 +817,8 @@ mod tests {
             })
             .collect();
         let mut c = NeighbourCache::default();
-        c.rebuild(pts);
+        let up = vec![DVec3::Z; pts.len()];
+        c.rebuild(pts, up);
         let shape = c.shapes()[6 * 13 + 6];
         let a = DVec3::from(shape.axis.map(f64::from));
         for n in [DVec3::Z, -DVec3::Z] {
@@ -719,7 +862,7 @@ mod tests {
                 .collect()
         };
         let mut c = NeighbourCache::default();
-        c.rebuild(grid(0.001, 0.003));
+        c.rebuild(grid(0.001, 0.003), vec![n; 1600]);
         let s = c.shapes()[20 * 40 + 20];
         let axis = DVec3::from(s.axis.map(f64::from));
         assert!(
@@ -745,7 +888,7 @@ mod tests {
                 t1 * x + t2 * (j as f64 * 0.002 * 0.75f64.sqrt())
             })
             .collect();
-        c.rebuild(hex);
+        c.rebuild(hex, vec![n; 1600]);
         let s = c.shapes()[20 * 40 + 20];
         assert!(s.minor_radius >= 0.95 * s.radius, "{s:?}");
         assert!((0.0019..0.0025).contains(&f64::from(s.radius)), "{s:?}");
