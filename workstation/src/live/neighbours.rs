@@ -8,10 +8,9 @@
 //! holds this place"); [`NeighbourCache::update`] then applies [`Edits`] in O(changed points ·
 //! neighbours): a point's shape depends only on its own normal and the positions and normals
 //! of the points inside its ball of radius `reach` (the distance to the farthest of the
-//! [`SEARCH`] nearest, by position),
-//! so only points whose ball a changed point left, entered or turned in, and the changed points
-//! themselves, are recomputed, by a ring search of the grid. The k-d tree is never rebuilt on
-//! this path.
+//! [`SEARCH`] nearest, by position), so only points whose ball a changed point left, entered or
+//! turned in, and the changed points themselves, are recomputed, by a ring search of the grid.
+//! The k-d tree is never rebuilt on this path.
 //!
 //! The shape is the one place that reads the neighbours ([`NeighbourShape::from_nearest`]): its
 //! ball is the one its search reached, so the incremental rule above holds for it.
@@ -96,14 +95,17 @@ impl NeighbourShape {
     /// points'. It uses the neighbours strictly nearer than the last one given, at most [`K`]:
     /// the same set whichever of several equally far points a search returned last (two
     /// coincident points facing apart, a sheet of no thickness, would otherwise give a shape
-    /// that depends on the search's order). Only neighbours on the point's own sheet count: one whose normal faces away
-    /// from `n` (the other side of a part thinner than the spacing, an ear or a blade) would
-    /// tilt the plane across the part and read its thickness as curvature, and the splat would
-    /// stand out of the surface as a petal ([`on_own_sheet`]). The tangent plane is the kept
+    /// that depends on the search's order).
+    ///
+    /// Only neighbours on the point's own sheet count: one whose normal faces away from `n`
+    /// (the other side of a part thinner than the spacing, an ear or a blade) would tilt the
+    /// plane across the part and read its thickness as curvature, and the splat would stand
+    /// out of the surface as a petal ([`on_own_sheet`]). The tangent plane is the kept
     /// neighbours' own (the least principal axis of their spread about the point); the
     /// renderer lays the axis into the plane of the point's actual normal. The ellipse is
     /// scaled down, if need be, to reach no farther than the nearest neighbour across a bend
-    /// ([`ACROSS_A_BEND`]). Degenerate
+    /// ([`ACROSS_A_BEND`]; the renderer's growth to the cell's corners, at most
+    /// [`render::MAX_CELL_GROWTH`] where the splat faces the eye, comes on top). Degenerate
     /// neighbourhoods (collinear, coincident, all facing away) fall back to a disk through the
     /// farthest neighbour used.
     pub fn from_nearest(
@@ -180,8 +182,8 @@ pub fn on_own_sheet(n: DVec3, m: DVec3) -> bool {
     n.dot(m) >= 0.0 || !n.dot(m).is_finite()
 }
 
-/// Every point's shape and reach (the farthest of its [`SEARCH`] nearest) from scratch, with a k-d tree
-/// on all cores; at most [`K`] points: lone disks of unbounded reach.
+/// Every point's shape and reach (the farthest of its [`SEARCH`] nearest) from scratch, with a
+/// k-d tree on all cores; at most [`K`] points: lone disks of unbounded reach.
 pub fn shapes_and_reach(positions: &[DVec3], normals: &[DVec3]) -> (Vec<NeighbourShape>, Vec<f64>) {
     if positions.len() <= K {
         return (
