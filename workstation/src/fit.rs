@@ -152,6 +152,8 @@ pub struct FitArgs {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum NormalsArg {
     /// Keep given normals (a mesh without normals: from its faces); estimate only missing ones.
+    /// Normals whose signs look like noise (unoriented, as some scanners write them) are made
+    /// consistent first, with a warning.
     Keep,
     /// Make given normals' signs consistent (repairs flipped normals).
     Reorient,
@@ -395,6 +397,15 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             let mut loaded = read_file(path)?;
             // `--normals estimate` still ignores these.
             loaded.normals_from_winding();
+            if args.normals == NormalsArg::Keep
+                && let Some(normals) = loaded.points.normals.as_mut()
+            {
+                crate::sculpt::orient_if_unoriented(
+                    &path.display().to_string(),
+                    &loaded.points.positions,
+                    normals,
+                );
+            }
             (loaded.points, loaded.mesh, ReferenceSpec::None)
         }
         InputSpec::SampledMesh { path, n } => {

@@ -156,6 +156,22 @@ pub(crate) fn region_params(r: &RegionSpec) -> RegionParams {
     }
 }
 
+/// Reorient a file's `normals` when their signs are noise (some scanners write unoriented
+/// normals; a field fitted to them breaks up), saying so: `sim_core::normals::orient_if_unoriented`.
+pub(crate) fn orient_if_unoriented(
+    what: &str,
+    positions: &[glam::DVec3],
+    normals: &mut [glam::DVec3],
+) {
+    if let Some(share) = sim_core::normals::orient_if_unoriented(positions, normals) {
+        tracing::warn!(
+            "{what}: the normals' signs look unoriented ({:.0} % of neighbours side by side face \
+             apart): made consistent, each part's top facing up",
+            100.0 * share
+        );
+    }
+}
+
 pub(crate) fn load_object(
     spec: &ObjectSpec,
     dir: &Path,
@@ -178,6 +194,9 @@ pub(crate) fn load_object(
                     merged,
                     "points repeated at one position merged (a mesh's split vertices)"
                 );
+            }
+            if let Some(normals) = loaded.points.normals.as_mut() {
+                orient_if_unoriented(&spec.name, &loaded.points.positions, normals);
             }
             if loaded.points.len() < FEW_POINTS {
                 tracing::warn!(

@@ -69,3 +69,46 @@ fn queries_at_non_finite_and_overflowing_positions() {
         }
     }
 }
+
+/// Some scanners write normals whose signs are noise. A field fitted to them has no consistent
+/// inside, so they are reoriented (and only they): a sphere whose normals point in or out at
+/// random comes back facing out everywhere; oriented normals, and the two sides of a part
+/// thinner than the spacing (which face apart but lie off each other's planes), are left alone.
+#[test]
+fn unoriented_normals_are_reoriented_and_oriented_ones_left_alone() {
+    use sim_core::knn::PointIndex;
+    use sim_core::normals::{UNORIENTED_SHARE, orient_if_unoriented, unoriented_share};
+    let sphere = Shape::Sphere { radius: 0.05 }.sample(3000, 11);
+    let outward = sphere.normals.clone().unwrap();
+    let mut random: Vec<DVec3> = outward
+        .iter()
+        .enumerate()
+        .map(|(i, n)| if (i * 7919) % 13 < 6 { -*n } else { *n })
+        .collect();
+    let index = PointIndex::new(&sphere.positions);
+    let share = unoriented_share(&sphere.positions, &index, &random);
+    assert!(share > 0.35, "random signs: {share}");
+    assert_eq!(
+        orient_if_unoriented(&sphere.positions, &mut random),
+        Some(share)
+    );
+    for (p, n) in sphere.positions.iter().zip(&random) {
+        assert!(p.dot(*n) > 0.0, "{p} faces in after reorienting");
+    }
+    // Oriented: untouched.
+    let mut same = outward.clone();
+    assert_eq!(orient_if_unoriented(&sphere.positions, &mut same), None);
+    assert_eq!(same, outward);
+    // A leaf 3 mm thick sampled every 3 mm or so: its sides face apart, not unoriented.
+    let leaf = Shape::Ellipsoid {
+        radii: DVec3::new(0.04, 0.025, 0.0015),
+    }
+    .sample(600, 5);
+    let given = leaf.normals.clone().unwrap();
+    let index = PointIndex::new(&leaf.positions);
+    let share = unoriented_share(&leaf.positions, &index, &given);
+    assert!(share < UNORIENTED_SHARE / 2.0, "leaf: {share}");
+    let mut kept = given.clone();
+    assert_eq!(orient_if_unoriented(&leaf.positions, &mut kept), None);
+    assert_eq!(kept, given);
+}

@@ -56,6 +56,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             args.file.display()
         ),
     };
+    let mut normals = normals;
+    crate::sculpt::orient_if_unoriented(
+        &args.file.display().to_string(),
+        &p.positions,
+        &mut normals,
+    );
     let colors = p.colors.unwrap_or_else(|| vec![[200, 200, 200]; n]);
     let snap = RenderSnapshot {
         points: ChunkedPoints::from_slices(&p.positions, &normals, &colors),

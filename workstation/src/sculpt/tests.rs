@@ -363,3 +363,41 @@ fn a_mesh_file_is_loaded_with_each_vertex_once_and_its_winding_normals() {
         );
     }
 }
+
+#[test]
+fn a_file_with_unoriented_normals_opens_with_them_made_consistent() {
+    // Some scanners write normals whose signs are noise; fitted as given, the field has no
+    // consistent inside and the surface breaks up.
+    let dir = std::env::temp_dir().join(format!("sculpt-unoriented-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut ball = sim_core::sampling::Shape::Sphere { radius: 0.05 }.sample(2000, 3);
+    let normals = ball.normals.as_mut().unwrap();
+    for (i, n) in normals.iter_mut().enumerate() {
+        if (i * 7919) % 13 < 6 {
+            *n = -*n;
+        }
+    }
+    let file = std::fs::File::create(dir.join("scan.ply")).unwrap();
+    sim_core::io::write_points_ply(file, &ball, false).unwrap();
+    let spec = super::script::ObjectSpec {
+        name: "scan".into(),
+        file: Some("scan.ply".into()),
+        generate: None,
+        size: None,
+        offset: [0.0; 3],
+    };
+    let object = super::load_object(&spec, &dir, &sim_core::FitParams::default()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    for (p, n) in object.positions.iter().zip(&object.normals) {
+        assert!(p.dot(*n) > 0.0, "{p}: {n} faces in");
+    }
+    // Inside is negative, outside positive, and the surface is where the points are.
+    assert!(object.field.value(glam::DVec3::ZERO) < 0.0);
+    assert!(object.field.value(glam::DVec3::new(0.0, 0.0, 0.08)) > 0.0);
+    let worst = object
+        .positions
+        .iter()
+        .map(|&p| object.field.value(p).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-3, "field at the points: {worst}");
+}
