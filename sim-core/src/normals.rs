@@ -146,7 +146,7 @@ const BESIDE: f64 = 0.25;
 /// random signs 0.41–0.46.
 pub const UNORIENTED_SHARE: f64 = 0.2;
 
-/// The share of near pairs (each sampled point with its [`SHARE_NEIGHBOURS`] nearest) whose
+/// The share of near pairs (each sampled point with its 8 nearest) whose
 /// normals face apart although the neighbour lies beside the point, in its tangent plane: the
 /// signature of unoriented normals. On one oriented sheet neighbours beside each other agree;
 /// the two sides of a thin part face apart but lie off each other's planes. Zero normals
