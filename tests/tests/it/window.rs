@@ -490,6 +490,13 @@ fn focus(x: &Xvfb) {
     ]);
 }
 
+/// Ctrl+Q in the focused view window, and its clean exit within 30 s.
+fn quit(x: &Xvfb, child: &mut Child, dir: &Path) {
+    focus(x);
+    x.xdotool(&["key", "ctrl+q"]);
+    wait_exit(child, dir, Duration::from_secs(30));
+}
+
 fn tool(name: &'static str) -> impl Fn(&serde_json::Value) -> bool {
     move |s: &serde_json::Value| s.get("tool").and_then(|t| t.as_str()) == Some(name)
 }
@@ -640,9 +647,7 @@ fn the_mouse_raises_a_rope_bump_and_paints_a_stroke_that_the_export_keeps() {
         bump * 1e3
     );
     assert!(painted >= 50, "the stroke painted {painted} points");
-    focus(&x);
-    x.xdotool(&["key", "ctrl+q"]);
-    wait_exit(&mut child, dir.path(), Duration::from_secs(30));
+    quit(&x, &mut child, dir.path());
 }
 
 #[test]
@@ -684,9 +689,7 @@ fn a_model_file_opens_scaled_into_the_scene_and_the_mouse_sculpts_it() {
         "the rope drag raised the surface by {:.2} mm",
         bump * 1e3
     );
-    focus(&x);
-    x.xdotool(&["key", "ctrl+q"]);
-    wait_exit(&mut child, dir.path(), Duration::from_secs(30));
+    quit(&x, &mut child, dir.path());
 }
 
 #[test]

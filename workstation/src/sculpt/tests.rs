@@ -328,6 +328,17 @@ fn uv_sphere(r: f64, around: u32, rings: u32) -> sim_core::mesh::TriMesh {
     }
 }
 
+/// An object read from `file`, as given (no size, no offset).
+fn file_object(name: &str, file: &str) -> super::script::ObjectSpec {
+    super::script::ObjectSpec {
+        name: name.into(),
+        file: Some(file.into()),
+        generate: None,
+        size: None,
+        offset: [0.0; 3],
+    }
+}
+
 #[test]
 fn a_mesh_file_is_loaded_with_each_vertex_once_and_its_winding_normals() {
     // An STL gives every triangle its own three corners and no vertex normals: loaded as given,
@@ -338,13 +349,7 @@ fn a_mesh_file_is_loaded_with_each_vertex_once_and_its_winding_normals() {
     let sphere = uv_sphere(0.05, 32, 16);
     let file = std::fs::File::create(dir.join("ball.stl")).unwrap();
     sim_core::io::write_mesh(file, &sphere, sim_core::io::Format::Stl).unwrap();
-    let spec = super::script::ObjectSpec {
-        name: "ball".into(),
-        file: Some("ball.stl".into()),
-        generate: None,
-        size: None,
-        offset: [0.0; 3],
-    };
+    let spec = file_object("ball", "ball.stl");
     let object = super::load_object(&spec, &dir, &sim_core::FitParams::default()).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(object.positions.len(), sphere.vertices.len());
@@ -379,13 +384,7 @@ fn a_file_with_unoriented_normals_opens_with_them_made_consistent() {
     }
     let file = std::fs::File::create(dir.join("scan.ply")).unwrap();
     sim_core::io::write_points_ply(file, &ball, false).unwrap();
-    let spec = super::script::ObjectSpec {
-        name: "scan".into(),
-        file: Some("scan.ply".into()),
-        generate: None,
-        size: None,
-        offset: [0.0; 3],
-    };
+    let spec = file_object("scan", "scan.ply");
     let object = super::load_object(&spec, &dir, &sim_core::FitParams::default()).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     for (p, n) in object.positions.iter().zip(&object.normals) {
