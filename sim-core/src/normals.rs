@@ -136,7 +136,7 @@ pub fn match_majority(given: &[DVec3], oriented: &mut [DVec3]) {
 /// Neighbours of each sampled point that [`unoriented_share`] pairs it with.
 const SHARE_NEIGHBOURS: usize = 8;
 /// Points [`unoriented_share`] samples at most (evenly by index).
-const SHARE_SAMPLES: usize = 20_000;
+const SHARE_SAMPLES: usize = 4_000;
 /// A neighbour within this sine (about 15°) of a point's tangent plane lies beside it, on its
 /// sheet; the far side of a thin part lies off the plane by the part's thickness.
 const BESIDE: f64 = 0.25;
@@ -184,7 +184,7 @@ pub fn unoriented_share(points: &[DVec3], index: &PointIndex, normals: &[DVec3])
 /// [`UNORIENTED_SHARE`]); otherwise leave them as they are. Returns the share when it
 /// reoriented. A field fitted to unoriented normals has no consistent inside: its surface breaks
 /// up (a 36k-point scan with random signs: coverage 32× worse, 41 % of projections
-/// unconverged). Costs a k-d tree and at most 20,000 searches when nothing is wrong.
+/// unconverged). Costs a k-d tree and at most 4,000 searches when nothing is wrong.
 pub fn orient_if_unoriented(points: &[DVec3], normals: &mut [DVec3]) -> Option<f64> {
     if points.len() < 2 || points.len() != normals.len() {
         return None;

@@ -53,6 +53,10 @@ type Node = [usize; 3];
 /// A crossed cell the walk keeps: its corner values and its points' facing.
 type Kept = ([f64; 8], DVec3);
 
+/// Nodes or cells per timed chunk of a parallel step (the phase timers read the clock once
+/// per chunk, not once per item).
+const TIMED_CHUNK: usize = 256;
+
 /// Hash maps keyed by grid coordinates packed into one integer (a multiplicative hash).
 type Fast = BuildHasherDefault<MulHasher>;
 
@@ -74,20 +78,36 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
     };
 
     let key = |n: Node| ((n[2] * dims[1] + n[1]) * dims[0] + n[0]) as u64;
-    let mut values: HashMap<u64, f64, Fast> = HashMap::default();
-    let mut lists: HashMap<BlockKey, SupportList> = HashMap::new();
+    // Blocks are keyed by their index in the grid of blocks, hashed by the cheap hasher: the
+    // walk looks a block up per node and per cell.
+    let block_id = |b: BlockKey| ((b[2] * bdims[1] + b[1]) * bdims[0] + b[0]) as u64;
+    // Node values, stored in every block whose nodes include the node (face nodes are
+    // shared), NaN where not evaluated: read from the node's home block, and handed to
+    // meshing as they are.
+    let mut blocks: HashMap<u64, (BlockKey, Vec<f64>), Fast> = HashMap::default();
+    let value_of = |blocks: &HashMap<u64, (BlockKey, Vec<f64>), Fast>, n: Node| -> f64 {
+        let b = home(n);
+        blocks.get(&block_id(b)).map_or(f64::NAN, |(_, v)| {
+            let (first, count) = block_nodes(spec, b);
+            v[((n[2] - first[2]) * count[1] + n[1] - first[1]) * count[0] + n[0] - first[0]]
+        })
+    };
+    let mut lists: HashMap<u64, SupportList, Fast> = HashMap::default();
     let mut visited: HashSet<u64, Fast> = HashSet::default();
-    let (mut eval_ns, mut trust_ns) = (0u64, 0u64);
+    let (mut eval_ns, mut trust_ns, mut evaluations) = (0u64, 0u64, 0usize);
     let mut crossed_cells: Vec<(Node, DVec3)> = Vec::new();
 
     // Round 0: the cells holding the points, each with the points in it (for the retry).
-    let mut seeds: HashMap<Node, DVec3> = HashMap::new();
+    let mut seeds: HashMap<u64, DVec3, Fast> = HashMap::default();
+    let mut frontier: Vec<Node> = Vec::new();
     for p in field.centres() {
-        if let Some(c) = cell_of(p) {
-            seeds.entry(c).or_insert(p);
+        if let Some(c) = cell_of(p)
+            && let std::collections::hash_map::Entry::Vacant(seed) = seeds.entry(key(c))
+        {
+            seed.insert(p);
+            frontier.push(c);
         }
     }
-    let mut frontier: Vec<Node> = seeds.keys().copied().collect();
     frontier.sort_unstable();
     visited.extend(frontier.iter().map(|&c| key(c)));
     let mut retry_seeds = true;
@@ -98,72 +118,106 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
         let mut need: Vec<Node> = frontier
             .par_iter()
             .flat_map_iter(|&c| corners(c))
-            .filter(|&n| !values.contains_key(&key(n)))
+            .filter(|&n| value_of(&blocks, n).is_nan())
             .collect();
         need.par_sort_unstable();
         need.dedup();
         let mut new_blocks: Vec<BlockKey> = need
             .iter()
             .map(|&n| home(n))
-            .filter(|b| !lists.contains_key(b))
+            .filter(|&b| !lists.contains_key(&block_id(b)))
             .collect();
         new_blocks.sort_unstable();
         new_blocks.dedup();
-        let gathered: Vec<(BlockKey, SupportList)> = new_blocks
+        let gathered: Vec<(u64, SupportList)> = new_blocks
             .par_iter()
             .map(|&b| {
                 let mut l = SupportList::new();
                 gather_block(field, spec, b, &mut l);
-                (b, l)
+                (block_id(b), l)
             })
             .collect();
         lists.extend(gathered);
-        let evaluated: Vec<(f64, u64)> = need
-            .par_iter()
-            .map(|&n| {
+        // Timed per chunk: a clock read per node cost a few percent of the walk.
+        let evaluated: Vec<(Vec<f64>, u64)> = need
+            .par_chunks(TIMED_CHUNK)
+            .map(|chunk| {
                 let t = Instant::now();
-                let x = spec.node_position(n[0], n[1], n[2]);
-                let f = field.value_near(x, &lists[&home(n)]);
+                let f = chunk
+                    .iter()
+                    .map(|&n| {
+                        let x = spec.node_position(n[0], n[1], n[2]);
+                        field.value_near(x, &lists[&block_id(home(n))])
+                    })
+                    .collect();
                 (f, t.elapsed().as_nanos() as u64)
             })
             .collect();
-        for (&n, &(f, ns)) in need.iter().zip(&evaluated) {
-            values.insert(key(n), f);
-            eval_ns += ns;
+        eval_ns += evaluated.iter().map(|e| e.1).sum::<u64>();
+        evaluations += need.len();
+        for (&n, &f) in need.iter().zip(evaluated.iter().flat_map(|(f, _)| f)) {
+            // Every block whose nodes include n: its home and, where n lies on a block face,
+            // the blocks below that face.
+            let lo: [usize; 3] = std::array::from_fn(|a| n[a].saturating_sub(1) / BLOCK);
+            let hi: [usize; 3] = std::array::from_fn(|a| (n[a] / BLOCK).min(bdims[a] - 1));
+            for bk in lo[2]..=hi[2] {
+                for bj in lo[1]..=hi[1] {
+                    for bi in lo[0]..=hi[0] {
+                        let b = [bi, bj, bk];
+                        let (first, count) = block_nodes(spec, b);
+                        let l: [usize; 3] = std::array::from_fn(|a| n[a].wrapping_sub(first[a]));
+                        if (0..3).any(|a| l[a] >= count[a]) {
+                            continue;
+                        }
+                        let (_, v) = blocks
+                            .entry(block_id(b))
+                            .or_insert_with(|| (b, vec![f64::NAN; count[0] * count[1] * count[2]]));
+                        v[(l[2] * count[1] + l[1]) * count[0] + l[0]] = f;
+                    }
+                }
+            }
         }
 
         // 2. Which frontier cells the surface crosses where it is trusted (in parallel: the
         //    trust test is the costly part).
-        // Per frontier cell: its corner values and the points' facing if kept; trust's ns.
-        let crossed: Vec<(Option<Kept>, u64)> = frontier
-            .par_iter()
-            .map(|&c| {
-                let f = corners(c).map(|n| values[&key(n)]);
-                let Some(guess) = first_guess(&f) else {
-                    return (None, 0);
-                };
+        // Per frontier cell: its corner values and the points' facing if kept; per chunk, the
+        // processor time (its trust tests, the rest of a cell's work a small part).
+        let crossed: Vec<(Vec<Option<Kept>>, u64)> = frontier
+            .par_chunks(TIMED_CHUNK)
+            .map(|chunk| {
                 let t = Instant::now();
-                let p = spec.node_position(c[0], c[1], c[2]) + guess * h;
-                // The guess lies in the cell, inside the box its first corner's block list
-                // was gathered for (the index answers if rounding put it a hair outside).
-                let b = home(c);
-                let (lo, hi) = block_box(spec, b);
-                let facing = if p.cmpge(lo).all() && p.cmple(hi).all() {
-                    field.trusted_facing_near(p, &lists[&b])
-                } else {
-                    field.trusted_facing(p)
-                };
-                let kept = facing.filter(|&n| field.faces_its_points(corner_gradient(&f), n));
-                (kept.map(|n| (f, n)), t.elapsed().as_nanos() as u64)
+                let kept = chunk
+                    .iter()
+                    .map(|&c| {
+                        let f = corners(c).map(|n| value_of(&blocks, n));
+                        let guess = first_guess(&f)?;
+                        let p = spec.node_position(c[0], c[1], c[2]) + guess * h;
+                        // The guess lies in the cell, inside the box its first corner's block
+                        // list was gathered for (the index answers if rounding put it a hair
+                        // outside).
+                        let b = home(c);
+                        let (lo, hi) = block_box(spec, b);
+                        let facing = if p.cmpge(lo).all() && p.cmple(hi).all() {
+                            field.trusted_facing_near(p, &lists[&block_id(b)])
+                        } else {
+                            field.trusted_facing(p)
+                        };
+                        let kept =
+                            facing.filter(|&n| field.faces_its_points(corner_gradient(&f), n));
+                        kept.map(|n| (f, n))
+                    })
+                    .collect();
+                (kept, t.elapsed().as_nanos() as u64)
             })
             .collect();
         trust_ns += crossed.iter().map(|c| c.1).sum::<u64>();
+        let crossed = crossed.iter().flat_map(|c| &c.0);
 
         // 3. Step across every face with a sign change among its corners.
         let mut next = Vec::new();
-        for (&c, (f, _)) in frontier.iter().zip(&crossed) {
+        for (&c, f) in frontier.iter().zip(crossed) {
             let Some((f, facing)) = f else {
-                if retry_seeds && let Some(&p) = seeds.get(&c) {
+                if retry_seeds && let Some(&p) = seeds.get(&key(c)) {
                     // A point whose cell the surface misses: try where it projects.
                     let pr = field.project_to_zero_set(p);
                     if pr.converged
@@ -209,35 +263,6 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
         frontier = next;
     }
 
-    // Hand every value to each block whose nodes include it (face nodes are shared).
-    let evaluations = values.len();
-    let mut blocks: HashMap<BlockKey, Vec<f64>> = HashMap::new();
-    for (&k, &f) in &values {
-        let k = k as usize;
-        let n: Node = [
-            k % dims[0],
-            (k / dims[0]) % dims[1],
-            k / (dims[0] * dims[1]),
-        ];
-        let lo: [usize; 3] = std::array::from_fn(|a| n[a].saturating_sub(1) / BLOCK);
-        let hi: [usize; 3] = std::array::from_fn(|a| (n[a] / BLOCK).min(bdims[a] - 1));
-        for bk in lo[2]..=hi[2] {
-            for bj in lo[1]..=hi[1] {
-                for bi in lo[0]..=hi[0] {
-                    let b = [bi, bj, bk];
-                    let (first, count) = block_nodes(spec, b);
-                    let l: [usize; 3] = std::array::from_fn(|a| n[a].wrapping_sub(first[a]));
-                    if (0..3).any(|a| l[a] >= count[a]) {
-                        continue;
-                    }
-                    let v = blocks
-                        .entry(b)
-                        .or_insert_with(|| vec![f64::NAN; count[0] * count[1] * count[2]]);
-                    v[(l[2] * count[1] + l[1]) * count[0] + l[0]] = f;
-                }
-            }
-        }
-    }
     let mut crossed: HashMap<BlockKey, Vec<(u32, DVec3)>> = HashMap::new();
     for (c, facing) in crossed_cells {
         let b = c.map(|v| v / BLOCK);
@@ -249,7 +274,7 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
         cells.sort_unstable_by_key(|c| c.0);
     }
     Followed {
-        values: blocks,
+        values: blocks.into_values().collect(),
         crossed,
         evaluations,
         eval_ns,
