@@ -34,6 +34,12 @@ pub fn block_dims(spec: &GridSpec) -> [usize; 3] {
         .map(|n| (n.saturating_sub(1)).div_ceil(BLOCK).max(1))
 }
 
+/// Block `b`'s index in the grid of blocks `bdims` ([`block_dims`]), x fastest: one integer
+/// to key maps of blocks by.
+pub fn block_index(bdims: [usize; 3], b: BlockKey) -> usize {
+    (b[2] * bdims[1] + b[1]) * bdims[0] + b[0]
+}
+
 /// Every block of the grid, in key order (z slowest).
 pub fn all_blocks(spec: &GridSpec) -> Vec<BlockKey> {
     let [bx, by, bz] = block_dims(spec);

@@ -25,7 +25,9 @@ use rayon::prelude::*;
 
 use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
-use crate::sparse::{BLOCK, BlockKey, block_box, block_dims, block_nodes, gather_block};
+use crate::sparse::{
+    BLOCK, BlockKey, block_box, block_dims, block_index, block_nodes, gather_block,
+};
 use crate::spatial::MulHasher;
 
 /// What [`follow`] found.
@@ -80,7 +82,7 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
     let key = |n: Node| ((n[2] * dims[1] + n[1]) * dims[0] + n[0]) as u64;
     // Blocks are keyed by their index in the grid of blocks, hashed by the cheap hasher: the
     // walk looks a block up per node and per cell.
-    let block_id = |b: BlockKey| ((b[2] * bdims[1] + b[1]) * bdims[0] + b[0]) as u64;
+    let block_id = |b: BlockKey| block_index(bdims, b) as u64;
     // Node values, stored in every block whose nodes include the node (face nodes are
     // shared), NaN where not evaluated: read from the node's home block, and handed to
     // meshing as they are.

@@ -29,7 +29,8 @@ use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
 use crate::projection::{ProjectOptions, project_to_zero_set_near};
 use crate::sparse::{
-    BLOCK, BlockKey, all_blocks, block_box, block_dims, block_nodes, gather_block, sample_block,
+    BLOCK, BlockKey, all_blocks, block_box, block_dims, block_index, block_nodes, gather_block,
+    sample_block,
 };
 
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside.
@@ -499,8 +500,8 @@ fn extract_blocks(
         (phase_s(0), phase_s(1), phase_s(2), phase_s(3), phase_s(4));
 
     let mut mesh = TriMesh::default();
-    let [bx, by, _] = block_dims(spec);
-    let block_key = |b: BlockKey| (b[2] * by + b[1]) * bx + b[0];
+    let bdims = block_dims(spec);
+    let block_key = |b: BlockKey| block_index(bdims, b);
     let mut slot: HashMap<usize, usize> = HashMap::with_capacity(evaluated.len());
     // Vertex ids per block and local cell (u32::MAX: no vertex).
     let mut ids: Vec<Vec<u32>> = Vec::with_capacity(evaluated.len());
