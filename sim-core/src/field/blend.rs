@@ -25,7 +25,9 @@ impl GlobalField {
     /// half-spaces: `max` (intersection) when the groups face away from each other (a thin
     /// solid), `min` (union) when they face each other (a gap). There f has a crease where the
     /// sides meet, and it can step where the split switches on (the groups' mean normals
-    /// crossing the threshold); elsewhere it is the papers' C¹ blend.
+    /// crossing the threshold); elsewhere it is the papers' C¹ blend. A side that reaches
+    /// across with a small share of the weight keeps its
+    /// veto only where its own tangent planes agree (see `light_side_handover`).
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         self.value_and_gradient_over::<true>(x, &self.inner.grid)
     }
@@ -59,7 +61,8 @@ impl GlobalField {
             let (fa, fb) = (a.value(), b.value());
             let solid = (a.centre / a.sw - b.centre / b.sw).dot(a.normal) > 0.0;
             let pick_a = if solid { fa.0 >= fb.0 } else { fa.0 <= fb.0 };
-            Some(if pick_a { fa } else { fb })
+            let sides = if pick_a { fa } else { fb };
+            Some(light_side_handover::<GRAD>(solid, a, b, fa, fb, sides))
         } else {
             let all = Blend {
                 sw: a.sw + b.sw,
@@ -113,6 +116,9 @@ impl GlobalField {
             acc.sw += phi;
             acc.centre += fr.center * phi;
             acc.normal += normal * phi;
+            // How far x lies off the field's tangent plane, in support radii.
+            let lean = normal.dot(rel) / r;
+            acc.lean += phi * lean;
             if !GRAD {
                 acc.swf += phi * eval3_value(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
                 return;
@@ -128,6 +134,7 @@ impl GlobalField {
             acc.swf += phi * s;
             acc.gsw += gphi;
             acc.gswf += gphi * s + gs * phi;
+            acc.glean += gphi * lean + normal * (phi / r);
         };
         if count <= HITS {
             for &(i, dist2) in &hits[..count] {
@@ -198,6 +205,66 @@ impl GlobalField {
     }
 }
 
+/// The two sides of a thin part, `sides` their combination (`max` for a thin solid, `min` for
+/// a thin gap), `fa` and `fb` each side's own blend. A side that reaches across with a small
+/// share of the weight loses its veto where only its fits' bend supports it: where x lies on
+/// the material side of its own tangent planes (for a solid; the open side for a gap) while
+/// its blend says otherwise. That is a fringe of the far side's supports, fitted round the
+/// part's rim and reaching across an armadillo's ear or a thin shell near the end of their
+/// support; kept as a veto, its extrapolated zero cut dents into the near side. Past a crease
+/// the far side's planes themselves end the near side, and it keeps its veto there, as does a
+/// side carrying more than [`LIGHT_SIDE_TO`] of the heavier side's weight. The hand-over is
+/// gradual (C¹ in the weight ratio and the lean).
+#[inline]
+fn light_side_handover<const GRAD: bool>(
+    solid: bool,
+    a: Blend,
+    b: Blend,
+    fa: (f64, DVec3),
+    fb: (f64, DVec3),
+    sides: (f64, DVec3),
+) -> (f64, DVec3) {
+    let (minor, major, major_value) = if a.sw < b.sw { (a, b, fb) } else { (b, a, fa) };
+    let ratio = minor.sw / major.sw;
+    let (light, dlight) = smoothstep(LIGHT_SIDE_FROM, LIGHT_SIDE_TO, ratio);
+    // The light side's lean off its planes toward where its veto would put x (outside for a
+    // solid, inside for a gap): ≥ 0 where its planes agree with the veto.
+    let sign = if solid { 1.0 } else { -1.0 };
+    let lean = sign * minor.lean / minor.sw;
+    let (planes, dplanes) = smoothstep(-PLANE_LEAN, 0.0, lean);
+    // The light side's share of the combination: 1 (a veto, `sides`) unless it is light and
+    // its planes disagree.
+    let share = 1.0 - (1.0 - light) * (1.0 - planes);
+    if share >= 1.0 {
+        return sides;
+    }
+    let f = major_value.0 + share * (sides.0 - major_value.0);
+    if !GRAD {
+        return (f, DVec3::ZERO);
+    }
+    let gratio = (minor.gsw * major.sw - major.gsw * minor.sw) / (major.sw * major.sw);
+    let glean = (minor.glean - minor.gsw * (minor.lean / minor.sw)) * (sign / minor.sw);
+    let gshare = gratio * (dlight * (1.0 - planes)) + glean * ((1.0 - light) * dplanes);
+    let g = major_value.1 + (sides.1 - major_value.1) * share + gshare * (sides.0 - major_value.0);
+    (f, g)
+}
+
+/// The lighter side's weight, as a fraction of the heavier's, below which it can lose its veto
+/// ...
+const LIGHT_SIDE_FROM: f64 = 0.05;
+/// ... and above which it keeps it whole.
+const LIGHT_SIDE_TO: f64 = 0.15;
+/// How far (in support radii, the weighted mean over the light side's fields) x may lie on
+/// the wrong side of the light side's tangent planes before its veto is handed over whole.
+const PLANE_LEAN: f64 = 0.1;
+
+/// `(s, ds/dx)` of the C¹ smoothstep from `a` to `b`.
+#[inline]
+fn smoothstep(a: f64, b: f64, x: f64) -> (f64, f64) {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t) / (b - a))
+}
+
 /// Supports a blend keeps from its one scan ([`GlobalField::blend`]); past this many it
 /// scans again.
 const HITS: usize = 64;
@@ -216,6 +283,10 @@ struct Blend {
     /// `Σ φᵢ cᵢ` and `Σ φᵢ nᵢ`: where the group's points are and which way they face.
     centre: DVec3,
     normal: DVec3,
+    /// `Σ φᵢ nᵢ·(x − cᵢ)/rᵢ` and its gradient: how far x lies off the group's tangent
+    /// planes, outward, in support radii.
+    lean: f64,
+    glean: DVec3,
 }
 
 impl Blend {
@@ -223,5 +294,79 @@ impl Blend {
     fn value(&self) -> (f64, DVec3) {
         let f = self.swf / self.sw;
         (f, (self.gswf - self.gsw * f) / self.sw)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A group's sums as affine functions of x (each with a constant gradient), so its
+    /// `value()` and the hand-over's gradient can be checked against central differences.
+    fn group(x: DVec3, sw: (f64, DVec3), swf: (f64, DVec3), lean: (f64, DVec3)) -> Blend {
+        Blend {
+            sw: sw.0 + sw.1.dot(x),
+            swf: swf.0 + swf.1.dot(x),
+            gsw: sw.1,
+            gswf: swf.1,
+            lean: lean.0 + lean.1.dot(x),
+            glean: lean.1,
+            ..Blend::default()
+        }
+    }
+
+    #[test]
+    fn the_light_sides_hand_over_has_the_gradient_of_its_value() {
+        let d = DVec3::new;
+        let sides_at = |x: DVec3| {
+            let major = group(
+                x,
+                (2.0, d(0.3, -0.2, 0.1)),
+                (-0.02, d(0.5, 0.1, 1.9)),
+                (0.0, DVec3::ZERO),
+            );
+            let minor = group(
+                x,
+                (0.2, d(-0.1, 0.05, 0.02)),
+                (0.002, d(0.01, -0.02, 0.05)),
+                (-0.01, d(0.02, 0.01, -0.03)),
+            );
+            (major.value().0, minor.value().0)
+        };
+        let at = |x: DVec3| {
+            // A heavy near side, and a light far side (ratio ≈ 0.1) whose blend vetoes (its
+            // value is the larger) while its planes lean 0.05 radii the wrong way: both
+            // smoothsteps are inside their ramps.
+            let major = group(
+                x,
+                (2.0, d(0.3, -0.2, 0.1)),
+                (-0.02, d(0.5, 0.1, 1.9)),
+                (0.0, DVec3::ZERO),
+            );
+            let minor = group(
+                x,
+                (0.2, d(-0.1, 0.05, 0.02)),
+                (0.002, d(0.01, -0.02, 0.05)),
+                (-0.01, d(0.02, 0.01, -0.03)),
+            );
+            let (fa, fb) = (major.value(), minor.value());
+            let sides = if fa.0 >= fb.0 { fa } else { fb };
+            light_side_handover::<true>(true, major, minor, fa, fb, sides)
+        };
+        let x = d(0.01, -0.02, 0.005);
+        let (f, g) = at(x);
+        let h = 1e-6;
+        let fd = DVec3::new(
+            at(x + DVec3::X * h).0 - at(x - DVec3::X * h).0,
+            at(x + DVec3::Y * h).0 - at(x - DVec3::Y * h).0,
+            at(x + DVec3::Z * h).0 - at(x - DVec3::Z * h).0,
+        ) / (2.0 * h);
+        assert!(
+            (g - fd).length() < 1e-7 * (1.0 + g.length()),
+            "analytic {g} vs finite difference {fd}"
+        );
+        // Strictly between the near side alone and the veto.
+        let (near, far) = (sides_at(x).0, sides_at(x).1);
+        assert!(near < f && f < far, "{near} < {f} < {far}");
     }
 }
