@@ -26,8 +26,8 @@ impl GlobalField {
     /// solid), `min` (union) when they face each other (a gap). There f has a crease where the
     /// sides meet, and it can step where the split switches on (the groups' mean normals
     /// crossing the threshold); elsewhere it is the papers' C¹ blend. A side that reaches
-    /// across with a small share of the weight keeps its
-    /// veto only where its own tangent planes agree (see `light_side_handover`).
+    /// across with a small share of the weight keeps its veto only where its own tangent
+    /// planes agree (see `light_side_handover`).
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         self.value_and_gradient_over::<true>(x, &self.inner.grid)
     }
@@ -249,8 +249,8 @@ fn light_side_handover<const GRAD: bool>(
     (f, g)
 }
 
-/// The lighter side's weight, as a fraction of the heavier's, below which it can lose its veto
-/// ...
+/// The lighter side's weight, as a fraction of the heavier's, below which it can lose its
+/// veto whole ...
 const LIGHT_SIDE_FROM: f64 = 0.05;
 /// ... and above which it keeps it whole.
 const LIGHT_SIDE_TO: f64 = 0.15;
