@@ -318,40 +318,29 @@ mod tests {
     #[test]
     fn the_light_sides_hand_over_has_the_gradient_of_its_value() {
         let d = DVec3::new;
-        let sides_at = |x: DVec3| {
-            let major = group(
+        // A heavy near side, and a light far side (ratio ≈ 0.1) whose blend vetoes (its value
+        // is the larger) while its planes lean 0.05 radii the wrong way: both smoothsteps are
+        // inside their ramps.
+        let sides = |x: DVec3| {
+            let near = group(
                 x,
                 (2.0, d(0.3, -0.2, 0.1)),
                 (-0.02, d(0.5, 0.1, 1.9)),
                 (0.0, DVec3::ZERO),
             );
-            let minor = group(
+            let far = group(
                 x,
                 (0.2, d(-0.1, 0.05, 0.02)),
                 (0.002, d(0.01, -0.02, 0.05)),
                 (-0.01, d(0.02, 0.01, -0.03)),
             );
-            (major.value().0, minor.value().0)
+            (near, far)
         };
         let at = |x: DVec3| {
-            // A heavy near side, and a light far side (ratio ≈ 0.1) whose blend vetoes (its
-            // value is the larger) while its planes lean 0.05 radii the wrong way: both
-            // smoothsteps are inside their ramps.
-            let major = group(
-                x,
-                (2.0, d(0.3, -0.2, 0.1)),
-                (-0.02, d(0.5, 0.1, 1.9)),
-                (0.0, DVec3::ZERO),
-            );
-            let minor = group(
-                x,
-                (0.2, d(-0.1, 0.05, 0.02)),
-                (0.002, d(0.01, -0.02, 0.05)),
-                (-0.01, d(0.02, 0.01, -0.03)),
-            );
-            let (fa, fb) = (major.value(), minor.value());
-            let sides = if fa.0 >= fb.0 { fa } else { fb };
-            light_side_handover::<true>(true, major, minor, fa, fb, sides)
+            let (near, far) = sides(x);
+            let (fa, fb) = (near.value(), far.value());
+            let veto = if fa.0 >= fb.0 { fa } else { fb };
+            light_side_handover::<true>(true, near, far, fa, fb, veto)
         };
         let x = d(0.01, -0.02, 0.005);
         let (f, g) = at(x);
@@ -366,7 +355,8 @@ mod tests {
             "analytic {g} vs finite difference {fd}"
         );
         // Strictly between the near side alone and the veto.
-        let (near, far) = (sides_at(x).0, sides_at(x).1);
+        let (near, far) = sides(x);
+        let (near, far) = (near.value().0, far.value().0);
         assert!(near < f && f < far, "{near} < {f} < {far}");
     }
 }
