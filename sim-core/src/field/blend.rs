@@ -27,7 +27,7 @@ impl GlobalField {
     /// sides meet, and it can step where the split switches on (the groups' mean normals
     /// crossing the threshold); elsewhere it is the papers' C¹ blend. A side that reaches
     /// across with a small share of the weight keeps its veto only where its own tangent
-    /// planes agree (see `light_side_handover`).
+    /// planes agree (see `combine_sides`).
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         self.value_and_gradient_over::<true>(x, &self.inner.grid)
     }
@@ -58,11 +58,8 @@ impl GlobalField {
             && b.sw > 0.0
             && a.normal.dot(b.normal) < agreement * a.normal.length() * b.normal.length();
         let result = if opposed {
-            let (fa, fb) = (a.value(), b.value());
             let solid = (a.centre / a.sw - b.centre / b.sw).dot(a.normal) > 0.0;
-            let pick_a = if solid { fa.0 >= fb.0 } else { fa.0 <= fb.0 };
-            let sides = if pick_a { fa } else { fb };
-            Some(light_side_handover::<GRAD>(solid, a, b, fa, fb, sides))
+            Some(combine_sides::<GRAD>(solid, a, b))
         } else {
             let all = Blend {
                 sw: a.sw + b.sw,
@@ -205,25 +202,22 @@ impl GlobalField {
     }
 }
 
-/// The two sides of a thin part, `sides` their combination (`max` for a thin solid, `min` for
-/// a thin gap), `fa` and `fb` each side's own blend. A side that reaches across with a small
-/// share of the weight loses its veto where only its fits' bend supports it: where x lies on
-/// the material side of its own tangent planes (for a solid; the open side for a gap) while
-/// its blend says otherwise. That is a fringe of the far side's supports, fitted round the
+/// `(f, ∇f)` of the two sides `a` and `b` of a thin part, each blended alone and combined by
+/// `max` for a thin solid (x is inside only where both sides say so: either side has a veto)
+/// or `min` for a thin gap. A side that reaches across with a small share of the weight
+/// loses its veto where only its fits' bend supports it: where x lies on the material side of
+/// its own tangent planes (for a solid; the open side for a gap) while its blend says
+/// otherwise. That is a fringe of the far side's supports, fitted round the
 /// part's rim and reaching across an armadillo's ear or a thin shell near the end of their
 /// support; kept as a veto, its extrapolated zero cut dents into the near side. Past a crease
 /// the far side's planes themselves end the near side, and it keeps its veto there, as does a
 /// side carrying more than [`LIGHT_SIDE_TO`] of the heavier side's weight. The hand-over is
 /// gradual (C¹ in the weight ratio and the lean).
 #[inline]
-fn light_side_handover<const GRAD: bool>(
-    solid: bool,
-    a: Blend,
-    b: Blend,
-    fa: (f64, DVec3),
-    fb: (f64, DVec3),
-    sides: (f64, DVec3),
-) -> (f64, DVec3) {
+fn combine_sides<const GRAD: bool>(solid: bool, a: Blend, b: Blend) -> (f64, DVec3) {
+    let (fa, fb) = (a.value(), b.value());
+    let pick_a = if solid { fa.0 >= fb.0 } else { fa.0 <= fb.0 };
+    let sides = if pick_a { fa } else { fb };
     let (minor, major, major_value) = if a.sw < b.sw { (a, b, fb) } else { (b, a, fa) };
     let ratio = minor.sw / major.sw;
     let (light, dlight) = smoothstep(LIGHT_SIDE_FROM, LIGHT_SIDE_TO, ratio);
@@ -338,9 +332,7 @@ mod tests {
         };
         let at = |x: DVec3| {
             let (near, far) = sides(x);
-            let (fa, fb) = (near.value(), far.value());
-            let veto = if fa.0 >= fb.0 { fa } else { fb };
-            light_side_handover::<true>(true, near, far, fa, fb, veto)
+            combine_sides::<true>(true, near, far)
         };
         let x = d(0.01, -0.02, 0.005);
         let (f, g) = at(x);
