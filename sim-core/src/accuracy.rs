@@ -1,7 +1,9 @@
 //! Error against ground truth, two ways:
 //! - [`mesh_error`], the one to judge a surface by: area-uniform samples over the *whole* output
 //!   mesh → distance to the reference, and samples on the reference → distance to the output
-//!   (coverage), so a spurious sheet far from the data and a hole both count.
+//!   (coverage), so a spurious sheet far from the data and a hole both count. Each way's max
+//!   also takes every vertex (the output's; the reference's when it is a mesh), so a spike
+//!   narrower than the samples' spacing is not missed by luck.
 //! - [`zero_set_error`], the projected figure: start near the reference surface, project onto
 //!   the fitted zero set with Newton, measure each projected point's distance to the reference.
 //!   It sees how well the field fits where the data is, but never a zero-set piece away from it.
@@ -30,6 +32,11 @@ pub trait Reference: Sync {
     fn sample(&self, n: usize, seed: u64) -> Vec<(DVec3, DVec3)>;
     /// The length errors are made relative to (sphere radius, else bounding-box diagonal).
     fn size(&self) -> f64;
+    /// The reference's own vertices, if it has any (a mesh's, those on a triangle): the
+    /// coverage max measures each, besides the samples. An analytic shape has none.
+    fn vertices(&self) -> Vec<DVec3> {
+        Vec::new()
+    }
 }
 
 impl Reference for Shape {
@@ -128,6 +135,9 @@ impl Reference for MeshReference {
     fn size(&self) -> f64 {
         crate::pointset::bounds(&self.mesh.vertices).map_or(1.0, |(lo, hi)| (hi - lo).length())
     }
+    fn vertices(&self) -> Vec<DVec3> {
+        self.mesh.used_vertices()
+    }
 }
 
 /// Zero-set error statistics.
@@ -197,7 +207,7 @@ pub struct Distances {
     pub rms: f64,
     /// 99th percentile.
     pub p99: f64,
-    /// Largest.
+    /// Largest: over the samples and, for [`mesh_error`], every vertex of the side measured.
     pub max: f64,
 }
 
@@ -277,6 +287,9 @@ pub struct SampledError {
     pub on_output: Vec<(DVec3, f64)>,
     /// Samples on the reference and their distances to the output.
     pub on_reference: Vec<(DVec3, f64)>,
+    /// The largest distance of a vertex each way: the output's vertices to the reference, and
+    /// the reference's ([`Reference::vertices`]) to the output. Each way's max counts it.
+    pub vertex_max: [f64; 2],
     /// See [`Reference::size`].
     pub reference_size: f64,
 }
@@ -303,20 +316,38 @@ impl SampledError {
             .into_par_iter()
             .map(|(p, _)| (p, output.distance(p)))
             .collect();
+        let farthest = |vertices: Vec<DVec3>, to: &dyn Reference| {
+            vertices
+                .into_par_iter()
+                .map(|v| to.distance(v))
+                .reduce(|| 0.0, f64::max)
+        };
+        let vertex_max = [
+            farthest(output.vertices(), reference),
+            farthest(reference.vertices(), &output),
+        ];
         Some(Self {
             on_output,
             on_reference,
+            vertex_max,
             reference_size: reference.size(),
         })
     }
 
-    /// RMS, 99th percentile and max each way, in metres.
+    /// RMS and 99th percentile of the samples and the max of the samples and the vertices,
+    /// each way, in metres.
     pub fn summary(&self) -> TwoSidedError {
-        let distances = |s: &[(DVec3, f64)]| Distances::of(s.iter().map(|(_, d)| *d).collect());
+        let distances = |s: &[(DVec3, f64)], vertex_max: f64| {
+            let d = Distances::of(s.iter().map(|(_, d)| *d).collect());
+            Distances {
+                max: d.max.max(vertex_max),
+                ..d
+            }
+        };
         TwoSidedError {
             samples: self.on_output.len(),
-            to_reference: distances(&self.on_output),
-            coverage: distances(&self.on_reference),
+            to_reference: distances(&self.on_output, self.vertex_max[0]),
+            coverage: distances(&self.on_reference, self.vertex_max[1]),
             reference_size: self.reference_size,
         }
     }
@@ -439,6 +470,7 @@ mod tests {
         SampledError {
             on_output: samples.clone(),
             on_reference: samples,
+            vertex_max: [0.0; 2],
             reference_size: 1.0,
         }
     }

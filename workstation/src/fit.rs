@@ -664,7 +664,7 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
     if let Some(e) = &r.surface {
         let d = distances_text;
         println!(
-            "surface      mesh → reference   {} ({} samples each way, relative to the reference size)",
+            "surface      mesh → reference   {} ({} samples each way, max also over every vertex; relative to the reference size)",
             d(&e.to_reference),
             e.samples
         );
@@ -695,7 +695,9 @@ pub struct MeshErrorArgs {
     /// plate:side,t, carved:R,r,d, …, or mesh:FILE.
     #[arg(long)]
     pub reference: String,
-    /// Samples on each side (on the mesh, on the reference).
+    /// Samples on each side (on the mesh, on the reference), area-uniform: RMS and p99 are
+    /// theirs. Each side's max also takes every vertex (the mesh's; a mesh reference's), so a
+    /// spike or a hole narrower than the samples' spacing still shows.
     #[arg(long, default_value_t = 100_000)]
     pub samples: usize,
     /// Seed of the samples.
@@ -821,7 +823,7 @@ pub fn print_mesh_error(r: &MeshErrorReport, json: bool) -> anyhow::Result<()> {
             .map_or(String::new(), |n| format!(", {n} connected piece(s)"))
     );
     println!(
-        "mesh → ref   {} ({} samples each way, relative to the size)",
+        "mesh → ref   {} ({} samples each way, max also over every vertex; relative to the size)",
         d(&r.to_reference),
         r.samples
     );

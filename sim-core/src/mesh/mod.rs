@@ -135,6 +135,19 @@ impl TriMesh {
         welded.components().1.len()
     }
 
+    /// The vertices some triangle uses, each once (a file's stray vertices left out).
+    pub fn used_vertices(&self) -> Vec<DVec3> {
+        let mut used = vec![false; self.vertices.len()];
+        for &i in self.triangles.iter().flatten() {
+            used[i as usize] = true;
+        }
+        self.vertices
+            .iter()
+            .zip(used)
+            .filter_map(|(&v, u)| u.then_some(v))
+            .collect()
+    }
+
     /// Total triangle area.
     pub fn area(&self) -> f64 {
         self.triangles

@@ -165,6 +165,23 @@ fn two_sided_metric_measures_offsets_sheets_and_holes_exactly() {
         e.coverage.max > 0.075 && e.coverage.max <= 0.08 + 1e-9,
         "{e:?}"
     );
+    // A needle 0.3 tall on the top face, of area 1e-8: no sample lands on it, but its tip
+    // vertex counts in the max each way (mesh → reference; and, with the needle on the
+    // reference mesh instead, reference → mesh).
+    let mut needled = exact.clone();
+    let base = needled.vertices.len() as u32;
+    needled.vertices.extend([
+        DVec3::new(0.0, 0.0, 0.3),
+        DVec3::new(1e-7, 0.0, 0.3),
+        DVec3::new(0.0, 0.0, 0.6),
+    ]);
+    needled.triangles.push([base, base + 1, base + 2]);
+    let e = mesh_error(&needled, &cube, N, 5).unwrap();
+    assert!((e.to_reference.max - 0.3).abs() < 1e-9, "{e:?}");
+    assert!(e.to_reference.p99 < 1e-12 && e.coverage.max < 1e-9, "{e:?}");
+    let e = mesh_error(&exact, &MeshReference::new(needled).unwrap(), N, 5).unwrap();
+    assert!((e.coverage.max - 0.3).abs() < 1e-9, "{e:?}");
+    assert!(e.coverage.p99 < 1e-9 && e.to_reference.max < 1e-9, "{e:?}");
     // Nothing to measure: no triangles.
     assert!(mesh_error(&TriMesh::default(), &cube, 10, 1).is_none());
 }
