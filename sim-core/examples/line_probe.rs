@@ -65,19 +65,7 @@ fn run(args: &[String]) -> Result<(), String> {
     };
     let (c, n) = (vector(c)?, vector(n)?.normalize());
     let half: f64 = half.parse().map_err(|e| format!("HALF {half}: {e}"))?;
-    let mut params = FitParams::default();
-    for (key, v) in common::key_values(overrides)? {
-        match key {
-            "k" => params.k = v as usize,
-            "weight_width" => params.weight_width = v,
-            "normal_weight" => params.normal_weight = v,
-            "regularization" => params.regularization = v,
-            "centre_spacing" => params.centre_spacing = v,
-            "offset" => params.offset = v,
-            "gap_fields" => params.gap_fields = v,
-            _ => return Err(format!("{key}: not a key this probe knows")),
-        }
-    }
+    let params = common::fit_params(FitParams::default(), overrides)?;
     let loaded = common::read_ply(file)?;
     let rec = reconstruct(
         &loaded.points,

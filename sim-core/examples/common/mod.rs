@@ -1,7 +1,9 @@
 //! What the diagnostic examples share: their `KEY=VALUE` arguments, reading a PLY file and a
-//! `main` that prints the error and fails.
+//! `main` that prints the error and fails. Each example compiles its own copy and uses a part.
+#![allow(dead_code)]
 use std::process::ExitCode;
 
+use sim_core::FitParams;
 use sim_core::io::{self, Format, Loaded};
 
 /// Each `KEY=VALUE` argument as its key and number.
@@ -15,6 +17,25 @@ pub fn key_values(args: &[String]) -> Result<Vec<(&str, f64)>, String> {
             Ok((key, v))
         })
         .collect()
+}
+
+/// `base` with the [`FitParams`] named by `KEY=VALUE` arguments replaced: `k`,
+/// `weight_width`, `normal_weight`, `regularization`, `centre_spacing`, `offset`,
+/// `gap_fields`.
+pub fn fit_params(mut params: FitParams, overrides: &[String]) -> Result<FitParams, String> {
+    for (key, v) in key_values(overrides)? {
+        match key {
+            "k" => params.k = v as usize,
+            "weight_width" => params.weight_width = v,
+            "normal_weight" => params.normal_weight = v,
+            "regularization" => params.regularization = v,
+            "centre_spacing" => params.centre_spacing = v,
+            "offset" => params.offset = v,
+            "gap_fields" => params.gap_fields = v,
+            _ => return Err(format!("{key}: not a fit parameter this probe knows")),
+        }
+    }
+    Ok(params)
 }
 
 /// A PLY file's points (and faces, if any); errors name the file.
