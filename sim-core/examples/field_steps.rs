@@ -15,8 +15,7 @@ use std::process::ExitCode;
 use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
-use sim_core::{FitParams, NoProgress};
+use sim_core::FitParams;
 
 fn run(args: &[String]) -> Result<(), String> {
     let [points, mesh, cell, overrides @ ..] = args else {
@@ -39,14 +38,7 @@ fn run(args: &[String]) -> Result<(), String> {
         ..FitParams::default()
     };
     let params = common::fit_params(fit_defaults, overrides)?;
-    let rec = reconstruct(
-        &points,
-        &params,
-        NormalPolicy::Keep,
-        &mut IgnoreStages,
-        &NoProgress,
-    )
-    .map_err(|e| e.to_string())?;
+    let rec = common::fit(&points, &params)?;
     let field = &rec.field;
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     const LINES: usize = 20_000;

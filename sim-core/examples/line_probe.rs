@@ -18,9 +18,8 @@ mod common;
 use std::process::ExitCode;
 
 use glam::DVec3;
+use sim_core::FitParams;
 use sim_core::bspline::eval3_value;
-use sim_core::reconstruct::{IgnoreStages, NormalPolicy, reconstruct};
-use sim_core::{FitParams, NoProgress};
 
 fn vector(s: &str) -> Result<DVec3, String> {
     let v: Vec<f64> = s
@@ -67,14 +66,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let half: f64 = half.parse().map_err(|e| format!("HALF {half}: {e}"))?;
     let params = common::fit_params(FitParams::default(), overrides)?;
     let loaded = common::read_ply(file)?;
-    let rec = reconstruct(
-        &loaded.points,
-        &params,
-        NormalPolicy::Keep,
-        &mut IgnoreStages,
-        &NoProgress,
-    )
-    .map_err(|e| e.to_string())?;
+    let rec = common::fit(&loaded.points, &params)?;
     let field = &rec.field;
     println!(
         "blended field: zero at {} (trusted at C: {})",

@@ -3,8 +3,9 @@
 #![allow(dead_code)]
 use std::process::ExitCode;
 
-use sim_core::FitParams;
 use sim_core::io::{self, Format, Loaded};
+use sim_core::reconstruct::{IgnoreStages, NormalPolicy, Reconstruction, reconstruct};
+use sim_core::{FitParams, NoProgress, PointSet};
 
 /// Each `KEY=VALUE` argument as its key and number.
 pub fn key_values(args: &[String]) -> Result<Vec<(&str, f64)>, String> {
@@ -36,6 +37,18 @@ pub fn fit_params(mut params: FitParams, overrides: &[String]) -> Result<FitPara
         }
     }
     Ok(params)
+}
+
+/// Fit `points` with their own normals, no progress or stage reports; errors as text.
+pub fn fit(points: &PointSet, params: &FitParams) -> Result<Reconstruction, String> {
+    reconstruct(
+        points,
+        params,
+        NormalPolicy::Keep,
+        &mut IgnoreStages,
+        &NoProgress,
+    )
+    .map_err(|e| e.to_string())
 }
 
 /// A PLY file's points (and faces, if any); errors name the file.
