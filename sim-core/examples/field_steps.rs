@@ -1,9 +1,10 @@
 //! Diagnostic: where the blended field steps. Fits a PLY point file (points and normals) with
-//! `workstation fit`'s defaults (or the `KEY=VALUE` overrides `line_probe` takes) and walks 20,000 random lines, each 4 cells long (a cell being
-//! `CELL`, e.g. the longest side of the points' box over the resolution), centred on random
-//! vertices of `MESH` (the fit's mesh, so the lines cross the surface), 200 samples each. A
-//! step is a change between neighbouring samples more than five times what the gradient
-//! accounts for (plus a thousandth of a cell); the largest is printed in cells.
+//! `workstation fit`'s defaults (or the `KEY=VALUE` overrides `line_probe` takes) and walks
+//! 20,000 random lines, each 4 cells long (a cell being `CELL`, e.g. the longest side of the
+//! points' box over the resolution), centred on random vertices of `MESH` (the fit's mesh, so
+//! the lines cross the surface), 200 samples each. A step is a change between neighbouring
+//! samples more than five times what the gradient accounts for (plus a thousandth of a
+//! cell); the largest is printed in cells.
 //!
 //! ```text
 //! cargo run --release -p sim-core --example field_steps -- POINTS.ply MESH.ply CELL [KEY=VALUE ...]
