@@ -4,7 +4,8 @@
 //! points' box over the resolution), centred on random vertices of `MESH` (the fit's mesh, so
 //! the lines cross the surface), 200 samples each. A step is a change between neighbouring
 //! samples more than five times what the gradient accounts for (plus a thousandth of a
-//! cell); the largest is printed in cells.
+//! cell) that is still more than a thousandth of a cell across an interval of 1e-12 (a jump,
+//! not a steep stretch); the largest is printed in cells.
 //!
 //! ```text
 //! cargo run --release -p sim-core --example field_steps -- POINTS.ply MESH.ply CELL [KEY=VALUE ...]
@@ -56,9 +57,12 @@ fn run(args: &[String]) -> Result<(), String> {
         .normalize();
         let mut prev = field.value_and_gradient(centre - dir * (2.0 * cell));
         for s in 1..=SAMPLES {
-            let (f, g) = field.value_and_gradient(centre + dir * (-2.0 * cell + dt * s as f64));
+            let here = centre + dir * (-2.0 * cell + dt * s as f64);
+            let (f, g) = field.value_and_gradient(here);
             let change = (f - prev.0).abs();
-            if change > 5.0 * dt * 0.5 * (g.length() + prev.1.length()) + 1e-3 * cell {
+            if change > 5.0 * dt * 0.5 * (g.length() + prev.1.length()) + 1e-3 * cell
+                && persists(field, here - dir * dt, here, 1e-3 * cell)
+            {
                 steps += 1;
                 worst = worst.max(change / cell);
             }
@@ -67,6 +71,23 @@ fn run(args: &[String]) -> Result<(), String> {
     }
     println!("{LINES} lines of 4 cells: {steps} steps, the largest {worst:.3} cells");
     Ok(())
+}
+
+/// Whether `f` still changes by more than `jump` across an interval of 1e-12 or less within
+/// `[a, b]` (halving toward the larger change): a step, not a steep stretch of a continuous
+/// field.
+fn persists(field: &sim_core::GlobalField, mut a: DVec3, mut b: DVec3, jump: f64) -> bool {
+    let (mut fa, mut fb) = (field.value(a), field.value(b));
+    while (b - a).length() > 1e-12 {
+        let m = (a + b) * 0.5;
+        let fm = field.value(m);
+        if (fm - fa).abs() > (fb - fm).abs() {
+            (b, fb) = (m, fm);
+        } else {
+            (a, fa) = (m, fm);
+        }
+    }
+    (fb - fa).abs() > jump
 }
 
 fn main() -> ExitCode {

@@ -7,6 +7,8 @@ use glam::DVec3;
 use super::supports::Supports;
 use super::{GlobalField, SupportList, weight};
 use crate::bspline::{eval3, eval3_value};
+use crate::local_fit::LocalFrame;
+use crate::spatial::SupportGrid;
 
 impl GlobalField {
     /// `f(x)`.
@@ -23,11 +25,14 @@ impl GlobalField {
     /// solid, or of a thin gap, closer than the supports) averaging them would erase both
     /// sheets; instead each group is blended alone and the two are combined like a CSG of
     /// half-spaces: `max` (intersection) when the groups face away from each other (a thin
-    /// solid), `min` (union) when they face each other (a gap). There f has a crease where the
-    /// sides meet, and it can step where the split switches on (the groups' mean normals
-    /// crossing the threshold); elsewhere it is the papers' C¹ blend. A side that reaches
-    /// across with a small share of the weight keeps its veto only where its own tangent
-    /// planes agree (see `combine_sides`).
+    /// solid), `min` (union) when they face each other (a gap), or a C¹ mix of the two where
+    /// the covering fields' votes (fixed at the fit: how each field's opposed neighbours lie)
+    /// are split, as at the corner of a closing slit. There f has a crease where the sides
+    /// meet, and it can step where the split switches on (the groups' mean normals crossing
+    /// the threshold) and where a side too light for the votes to decide swaps solid for gap;
+    /// elsewhere it is the papers' C¹ blend. A side that reaches across with a small share of
+    /// the weight keeps its veto only where its own tangent planes agree (see
+    /// `combine_sides`).
     pub fn value_and_gradient(&self, x: DVec3) -> (f64, DVec3) {
         self.value_and_gradient_over::<true>(x, &self.inner.grid)
     }
@@ -58,8 +63,7 @@ impl GlobalField {
             && b.sw > 0.0
             && a.normal.dot(b.normal) < agreement * a.normal.length() * b.normal.length();
         let result = if opposed {
-            let solid = (a.centre / a.sw - b.centre / b.sw).dot(a.normal) > 0.0;
-            Some(combine_sides::<GRAD>(solid, a, b))
+            Some(self.solid_or_gap::<GRAD>(a, b))
         } else {
             let all = Blend {
                 sw: a.sw + b.sw,
@@ -110,6 +114,12 @@ impl GlobalField {
             let dist = dist2.sqrt();
             let (phi, dphi) = weight(dist / r);
             let [u, v, w] = fr.to_local(x);
+            let vote = d.votes[i];
+            let votes = !vote.is_nan();
+            if votes {
+                acc.vw += phi;
+                acc.vs += phi * vote;
+            }
             acc.sw += phi;
             acc.centre += fr.center * phi;
             acc.normal += normal * phi;
@@ -131,6 +141,10 @@ impl GlobalField {
             acc.swf += phi * s;
             acc.gsw += gphi;
             acc.gswf += gphi * s + gs * phi;
+            if votes {
+                acc.gvw += gphi;
+                acc.gvs += gphi * vote;
+            }
             acc.glean += gphi * lean + normal * (phi / r);
         };
         if count <= HITS {
@@ -142,6 +156,17 @@ impl GlobalField {
             supports.for_each_containing(x, visit);
         }
         groups
+    }
+
+    /// The two opposed sides combined as a thin solid (`max`), a thin gap (`min`), or, where
+    /// the covering fields' votes ([`solid_votes`]) are split, a C¹ mix of the two. The votes
+    /// decide where the light side carries [`VOTE_FROM`] of the heavy side's weight and the
+    /// voting fields [`VOTE_WEIGHT`] of the blend's; short of that, the sides' weighted
+    /// centres (which side of one side's tangent plane the other's centre lies) decide,
+    /// with a C¹ hand-over between the two.
+    #[inline]
+    fn solid_or_gap<const GRAD: bool>(&self, a: Blend, b: Blend) -> (f64, DVec3) {
+        solid_or_gap::<GRAD>(a, b)
     }
 
     /// Signed distance to the nearest inlier point, signed by its normal (the fallback where
@@ -202,6 +227,46 @@ impl GlobalField {
     }
 }
 
+/// [`GlobalField::solid_or_gap`] of two opposed groups (both with weight).
+#[inline]
+fn solid_or_gap<const GRAD: bool>(a: Blend, b: Blend) -> (f64, DVec3) {
+    let hard = if (a.centre / a.sw - b.centre / b.sw).dot(a.normal) > 0.0 {
+        1.0
+    } else {
+        -1.0
+    };
+    let (minor, major) = if a.sw < b.sw { (a, b) } else { (b, a) };
+    let ratio = minor.sw / major.sw;
+    let (w, vw) = (a.sw + b.sw, a.vw + b.vw);
+    let (k, dk) = smoothstep(0.0, VOTE_FROM, ratio);
+    let (q, dq) = smoothstep(0.0, VOTE_WEIGHT, vw / w);
+    let vote = if vw > 0.0 { (a.vs + b.vs) / vw } else { hard };
+    let m = hard + k * q * (vote - hard);
+    let (t, dt) = smoothstep(-VOTE_BAND, VOTE_BAND, m);
+    if t >= 1.0 {
+        return combine_sides::<GRAD>(true, a, b);
+    }
+    if t <= 0.0 {
+        return combine_sides::<GRAD>(false, a, b);
+    }
+    let (fs, gs) = combine_sides::<GRAD>(true, a, b);
+    let (fg, gg) = combine_sides::<GRAD>(false, a, b);
+    let f = fg + t * (fs - fg);
+    if !GRAD {
+        return (f, DVec3::ZERO);
+    }
+    let (gw, gvw) = (a.gsw + b.gsw, a.gvw + b.gvw);
+    let gvote = if vw > 0.0 {
+        (a.gvs + b.gvs - gvw * vote) / vw
+    } else {
+        DVec3::ZERO
+    };
+    let gratio = (minor.gsw * major.sw - major.gsw * minor.sw) / (major.sw * major.sw);
+    let gshare = (gvw * w - gw * vw) / (w * w);
+    let gm = gvote * (k * q) + (gratio * (dk * q) + gshare * (k * dq)) * (vote - hard);
+    (f, gg + (gs - gg) * t + gm * (dt * (fs - fg)))
+}
+
 /// `(f, ∇f)` of the two sides `a` and `b` of a thin part, each blended alone and combined by
 /// `max` for a thin solid (x is inside only where both sides say so: either side has a veto)
 /// or `min` for a thin gap. A side that reaches across with a small share of the weight
@@ -259,6 +324,63 @@ fn smoothstep(a: f64, b: f64, x: f64) -> (f64, f64) {
     (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t) / (b - a))
 }
 
+/// Each field's vote, per slot ([`vote`]).
+pub(super) fn solid_votes(
+    frames: &[LocalFrame],
+    support: &[f64],
+    grid: &SupportGrid,
+    agreement: f64,
+) -> Vec<f64> {
+    use rayon::prelude::*;
+    (0..frames.len())
+        .into_par_iter()
+        .map(|i| vote(frames, support, grid, agreement, i))
+        .collect()
+}
+
+/// Field `i`'s vote: how its opposed neighbours (fields whose support contains its centre and
+/// whose normal has a dot product below `agreement` with its own) lie, weighted by their
+/// blending weight there: +1 for one behind it (the two bound a thin solid), −1 for one in
+/// front (a thin gap), soft within [`VOTE_SOFT`] of its support radius of level. NaN for a
+/// field without opposed neighbours (and for outliers). Votes are fixed when a field is
+/// fitted, so the mix the blend takes from them is continuous where the sides' own centres
+/// come level.
+pub(super) fn vote(
+    frames: &[LocalFrame],
+    support: &[f64],
+    grid: &SupportGrid,
+    agreement: f64,
+    i: usize,
+) -> f64 {
+    let r = support[i];
+    if !(r > 0.0) {
+        return f64::NAN;
+    }
+    let (c, n) = (frames[i].center, frames[i].axes[2]);
+    let (mut sw, mut ss) = (0.0, 0.0);
+    grid.for_each_containing(c, |j, _, dist2| {
+        if j == i || n.dot(frames[j].axes[2]) >= agreement {
+            return;
+        }
+        let w = weight(dist2.sqrt() / support[j]).0;
+        let lead = (c - frames[j].center).dot(n) / (VOTE_SOFT * r);
+        sw += w;
+        ss += w * lead.clamp(-1.0, 1.0);
+    });
+    if sw > 0.0 { ss / sw } else { f64::NAN }
+}
+
+/// A field's vote is soft while its opposed neighbour's centre lies within this share of its
+/// support radius of level with its own.
+const VOTE_SOFT: f64 = 0.1;
+/// The voting fields' share of the blend's weight by which the votes have taken over.
+const VOTE_WEIGHT: f64 = 0.1;
+/// The light side's weight, as a fraction of the heavier's, by which the votes have taken
+/// over from the centres' arrangement.
+const VOTE_FROM: f64 = 0.05;
+/// The mean vote over which the combination turns from gap (`min`) to solid (`max`).
+const VOTE_BAND: f64 = 0.5;
+
 /// Supports a blend keeps from its one scan ([`GlobalField::blend`]); past this many it
 /// scans again.
 const HITS: usize = 64;
@@ -281,6 +403,11 @@ struct Blend {
     /// planes, outward, in support radii.
     lean: f64,
     glean: DVec3,
+    /// `Σ φᵢ` and `Σ φᵢ vᵢ` over the fields that vote, and their gradients.
+    vw: f64,
+    vs: f64,
+    gvw: DVec3,
+    gvs: DVec3,
 }
 
 impl Blend {
@@ -307,6 +434,82 @@ mod tests {
             glean: lean.1,
             ..Blend::default()
         }
+    }
+
+    /// Two opposed groups whose centres come level as x moves along z: `b`'s centre sits at
+    /// x, `a`'s at the origin facing +z, so the centres' arrangement says solid below z = 0
+    /// and gap above. `b` weighs `b_weight` (plus a little slope); a share `a_voting` of
+    /// `a`'s weight and all of `b`'s vote, `votes` (a mean each).
+    fn level_centres(x: DVec3, b_weight: f64, a_voting: f64, votes: [f64; 2]) -> (Blend, Blend) {
+        let d = DVec3::new;
+        let mut a = group(
+            x,
+            (1.0, d(0.1, 0.0, 0.2)),
+            (0.02, d(0.0, 0.1, 1.0)),
+            (0.0, DVec3::ZERO),
+        );
+        let mut b = group(
+            x,
+            (b_weight, d(0.0, -0.1, 0.1) * b_weight),
+            (-0.03 * b_weight, d(0.1, 0.0, -1.0) * b_weight),
+            (0.0, DVec3::ZERO),
+        );
+        a.normal = DVec3::Z * a.sw;
+        b.normal = -DVec3::Z * b.sw;
+        b.centre = x * b.sw;
+        (a.vw, a.gvw) = (a_voting * a.sw, a.gsw * a_voting);
+        (a.vs, a.gvs) = (a.vw * votes[0], a.gvw * votes[0]);
+        (b.vw, b.gvw) = (b.sw, b.gsw);
+        (b.vs, b.gvs) = (b.vw * votes[1], b.gvw * votes[1]);
+        (a, b)
+    }
+
+    /// The gradient `solid_or_gap` returns at `x` against central differences of its value.
+    fn assert_gradient_of_value(at: impl Fn(DVec3) -> (f64, DVec3), x: DVec3) {
+        let (_, g) = at(x);
+        let h = 1e-6;
+        let fd = DVec3::new(
+            at(x + DVec3::X * h).0 - at(x - DVec3::X * h).0,
+            at(x + DVec3::Y * h).0 - at(x - DVec3::Y * h).0,
+            at(x + DVec3::Z * h).0 - at(x - DVec3::Z * h).0,
+        ) / (2.0 * h);
+        assert!(
+            (g - fd).length() < 1e-6 * (1.0 + g.length()),
+            "at {x}: analytic {g} vs finite difference {fd}"
+        );
+    }
+
+    #[test]
+    fn split_votes_mix_solid_and_gap_without_a_step_where_the_centres_come_level() {
+        // Both sides heavy, every field voting, the votes split (a mean of about 0.17): the
+        // votes decide, so f is continuous where the centres come level.
+        let at = |x: DVec3, votes: [f64; 2]| {
+            let (a, b) = level_centres(x, 0.5, 1.0, votes);
+            solid_or_gap::<true>(a, b)
+        };
+        let (below, above) = (DVec3::new(0.01, 0.02, -1e-12), DVec3::new(0.01, 0.02, 1e-12));
+        let jump = (at(above, [0.3, -0.1]).0 - at(below, [0.3, -0.1]).0).abs();
+        assert!(jump < 1e-9, "f jumps by {jump} where the centres come level");
+        // Without votes (NaN for every field: no opposed neighbours) the centres decide, and f
+        // steps there.
+        let at_unvoted = |x: DVec3| {
+            let (mut a, mut b) = level_centres(x, 0.5, 1.0, [0.0; 2]);
+            (a.vw, a.vs, b.vw, b.vs) = (0.0, 0.0, 0.0, 0.0);
+            solid_or_gap::<true>(a, b).0
+        };
+        let hard = (at_unvoted(above) - at_unvoted(below)).abs();
+        assert!(hard > 1e-3, "without votes: {hard}");
+        // Inside the mix the gradient is that of the value.
+        assert_gradient_of_value(|x| at(x, [0.3, -0.1]), DVec3::new(0.01, 0.02, 0.03));
+        // And where a light side (3 % of the other's weight) and few voters (7 % of the
+        // weight) hand the decision between the centres and the votes.
+        assert_gradient_of_value(
+            |x| {
+                let (a, b) = level_centres(x, 0.03, 0.04, [-0.5, -0.5]);
+                solid_or_gap::<true>(a, b)
+            },
+            DVec3::new(0.01, 0.02, -0.03),
+        );
     }
 
     #[test]

@@ -177,6 +177,7 @@ impl GlobalField {
         sup_sorted.sort_by(f64::total_cmp);
         let scale = sup_sorted[sup_sorted.len() / 2];
         let grid = SupportGrid::new(&centers, &support, 2.0 * scale);
+        let votes = super::blend::solid_votes(&frames, &support, &grid, params.normal_agreement);
         let witnesses = (params.centre_spacing > 0.0).then(|| {
             let support: Vec<f64> = (0..points.len())
                 .map(|i| {
@@ -214,6 +215,7 @@ impl GlobalField {
                 fitted: n + sites.len(),
                 first_gap: n,
                 grid,
+                votes,
                 witnesses,
                 refit: Arc::new(refit),
                 scale,

@@ -118,6 +118,9 @@ struct FieldData {
     /// Gap fields ([`crate::gaps`]) fill slots `first_gap..fitted`.
     first_gap: usize,
     grid: SupportGrid,
+    /// Per slot, whether the field's opposed neighbours make a thin solid (+1) or a thin gap
+    /// (−1) with it ([`blend::vote`]; the neighbours' own votes are not revisited when a field is relocated); NaN where it has none.
+    votes: Vec<f64>,
     /// Every inlier point as a trust witness, where the local fields are thinned
     /// ([`FitParams::centre_spacing`]); `None`: the fields' own points are the witnesses.
     witnesses: Option<Witnesses>,
@@ -312,6 +315,9 @@ impl GlobalField {
         data.orphans.push(old as u32);
         data.slot[i] = s as u32;
         data.grid.insert(frame.center, support, s as u32);
+        let agreement = data.params.normal_agreement;
+        let vote = blend::vote(&data.frames, &data.support, &data.grid, agreement, s);
+        data.votes.push(vote);
         Some(s)
     }
 
@@ -358,6 +364,7 @@ impl Clone for FieldData {
             fitted: self.fitted,
             first_gap: self.first_gap,
             grid: self.grid.clone(),
+            votes: self.votes.clone(),
             witnesses: self.witnesses.clone(),
             refit: Arc::clone(&self.refit),
             scale: self.scale,
