@@ -353,7 +353,7 @@ pub(super) fn vote(
     i: usize,
 ) -> f64 {
     let r = support[i];
-    if !(r > 0.0) {
+    if r.is_nan() || r <= 0.0 {
         return f64::NAN;
     }
     let (c, n) = (frames[i].center, frames[i].axes[2]);
@@ -487,9 +487,15 @@ mod tests {
             let (a, b) = level_centres(x, 0.5, 1.0, votes);
             solid_or_gap::<true>(a, b)
         };
-        let (below, above) = (DVec3::new(0.01, 0.02, -1e-12), DVec3::new(0.01, 0.02, 1e-12));
+        let (below, above) = (
+            DVec3::new(0.01, 0.02, -1e-12),
+            DVec3::new(0.01, 0.02, 1e-12),
+        );
         let jump = (at(above, [0.3, -0.1]).0 - at(below, [0.3, -0.1]).0).abs();
-        assert!(jump < 1e-9, "f jumps by {jump} where the centres come level");
+        assert!(
+            jump < 1e-9,
+            "f jumps by {jump} where the centres come level"
+        );
         // Without votes (NaN for every field: no opposed neighbours) the centres decide, and f
         // steps there.
         let at_unvoted = |x: DVec3| {

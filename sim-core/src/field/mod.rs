@@ -4,8 +4,9 @@
 //! static surface, [`FitParams::centre_spacing`], whose trust tests still consult every
 //! point, plus fields centred in the gaps between them, [`FitParams::gap_fields`]); where the
 //! covering fields come from the two opposite sides of
-//! a thin solid or gap, the sides are blended apart and combined by max / min, a side with a
-//! small share of the weight keeping its veto only where its own tangent planes agree (see
+//! a thin solid or gap, the sides are blended apart and combined by max / min (which one
+//! decided by the covering fields' votes, fixed at the fit), a side with a small share of the
+//! weight keeping its veto only where its own tangent planes agree (see
 //! [`GlobalField::value_and_gradient`]). Sign: `f < 0` inside, `f > 0` outside, `∇f` outward.
 //!
 //! Contract: a [`GlobalField`] is immutable and cheap to clone (one `Arc`), so a simulation can
