@@ -377,7 +377,7 @@ const VOTE_SOFT: f64 = 0.1;
 const VOTE_WEIGHT: f64 = 0.1;
 /// The light side's weight, as a fraction of the heavier's, by which the votes have taken
 /// over from the centres' arrangement.
-const VOTE_FROM: f64 = 0.05;
+const VOTE_FROM: f64 = 0.01;
 /// The mean vote over which the combination turns from gap (`min`) to solid (`max`).
 const VOTE_BAND: f64 = 0.5;
 
@@ -507,11 +507,11 @@ mod tests {
         assert!(hard > 1e-3, "without votes: {hard}");
         // Inside the mix the gradient is that of the value.
         assert_gradient_of_value(|x| at(x, [0.3, -0.1]), DVec3::new(0.01, 0.02, 0.03));
-        // And where a light side (3 % of the other's weight) and few voters (7 % of the
+        // And where a light side (0.6 % of the other's weight) and few voters (7 % of the
         // weight) hand the decision between the centres and the votes.
         assert_gradient_of_value(
             |x| {
-                let (a, b) = level_centres(x, 0.03, 0.04, [-0.5, -0.5]);
+                let (a, b) = level_centres(x, 0.006, 0.06, [-0.9, -0.9]);
                 solid_or_gap::<true>(a, b)
             },
             DVec3::new(0.01, 0.02, -0.03),
