@@ -464,8 +464,9 @@ mod tests {
         (a, b)
     }
 
-    /// The gradient `solid_or_gap` returns at `x` against central differences of its value.
-    fn assert_gradient_of_value(at: impl Fn(DVec3) -> (f64, DVec3), x: DVec3) {
+    /// The gradient `at` returns at `x` against central differences of its value, within
+    /// `tolerance` relative to `1 + |∇f|`.
+    fn assert_gradient_of_value(at: impl Fn(DVec3) -> (f64, DVec3), x: DVec3, tolerance: f64) {
         let (_, g) = at(x);
         let h = 1e-6;
         let fd = DVec3::new(
@@ -474,7 +475,7 @@ mod tests {
             at(x + DVec3::Z * h).0 - at(x - DVec3::Z * h).0,
         ) / (2.0 * h);
         assert!(
-            (g - fd).length() < 1e-6 * (1.0 + g.length()),
+            (g - fd).length() < tolerance * (1.0 + g.length()),
             "at {x}: analytic {g} vs finite difference {fd}"
         );
     }
@@ -506,7 +507,7 @@ mod tests {
         let hard = (at_unvoted(above) - at_unvoted(below)).abs();
         assert!(hard > 1e-3, "without votes: {hard}");
         // Inside the mix the gradient is that of the value.
-        assert_gradient_of_value(|x| at(x, [0.3, -0.1]), DVec3::new(0.01, 0.02, 0.03));
+        assert_gradient_of_value(|x| at(x, [0.3, -0.1]), DVec3::new(0.01, 0.02, 0.03), 1e-6);
         // And where a light side (0.6 % of the other's weight) and few voters (7 % of the
         // weight) hand the decision between the centres and the votes.
         assert_gradient_of_value(
@@ -515,6 +516,7 @@ mod tests {
                 solid_or_gap::<true>(a, b)
             },
             DVec3::new(0.01, 0.02, -0.03),
+            1e-6,
         );
     }
 
@@ -544,17 +546,8 @@ mod tests {
             combine_sides::<true>(true, near, far)
         };
         let x = d(0.01, -0.02, 0.005);
-        let (f, g) = at(x);
-        let h = 1e-6;
-        let fd = DVec3::new(
-            at(x + DVec3::X * h).0 - at(x - DVec3::X * h).0,
-            at(x + DVec3::Y * h).0 - at(x - DVec3::Y * h).0,
-            at(x + DVec3::Z * h).0 - at(x - DVec3::Z * h).0,
-        ) / (2.0 * h);
-        assert!(
-            (g - fd).length() < 1e-7 * (1.0 + g.length()),
-            "analytic {g} vs finite difference {fd}"
-        );
+        assert_gradient_of_value(at, x, 1e-7);
+        let f = at(x).0;
         // Strictly between the near side alone and the veto.
         let (near, far) = sides(x);
         let (near, far) = (near.value().0, far.value().0);
