@@ -63,7 +63,7 @@ impl GlobalField {
             && b.sw > 0.0
             && a.normal.dot(b.normal) < agreement * a.normal.length() * b.normal.length();
         let result = if opposed {
-            Some(self.solid_or_gap::<GRAD>(a, b))
+            Some(solid_or_gap::<GRAD>(a, b))
         } else {
             let all = Blend {
                 sw: a.sw + b.sw,
@@ -158,17 +158,6 @@ impl GlobalField {
         groups
     }
 
-    /// The two opposed sides combined as a thin solid (`max`), a thin gap (`min`), or, where
-    /// the covering fields' votes ([`solid_votes`]) are split, a C¹ mix of the two. The votes
-    /// decide where the light side carries [`VOTE_FROM`] of the heavy side's weight and the
-    /// voting fields [`VOTE_WEIGHT`] of the blend's; short of that, the sides' weighted
-    /// centres (which side of one side's tangent plane the other's centre lies) decide,
-    /// with a C¹ hand-over between the two.
-    #[inline]
-    fn solid_or_gap<const GRAD: bool>(&self, a: Blend, b: Blend) -> (f64, DVec3) {
-        solid_or_gap::<GRAD>(a, b)
-    }
-
     /// Signed distance to the nearest inlier point, signed by its normal (the fallback where
     /// no support covers `x`).
     pub fn nearest_signed_distance(&self, x: DVec3) -> (f64, DVec3) {
@@ -227,7 +216,12 @@ impl GlobalField {
     }
 }
 
-/// [`GlobalField::solid_or_gap`] of two opposed groups (both with weight).
+/// Two opposed groups (both with weight) combined as a thin solid (`max`), a thin gap
+/// (`min`), or, where the covering fields' votes ([`vote`]) are split, a C¹ mix of the two.
+/// The votes decide where the light side carries [`VOTE_FROM`] of the heavy side's weight and
+/// the voting fields [`VOTE_WEIGHT`] of the blend's; short of that, the sides' weighted
+/// centres (which side of one side's tangent plane the other's centre lies) decide, with a
+/// C¹ hand-over between the two.
 #[inline]
 fn solid_or_gap<const GRAD: bool>(a: Blend, b: Blend) -> (f64, DVec3) {
     let hard = if (a.centre / a.sw - b.centre / b.sw).dot(a.normal) > 0.0 {

@@ -120,7 +120,8 @@ struct FieldData {
     first_gap: usize,
     grid: SupportGrid,
     /// Per slot, whether the field's opposed neighbours make a thin solid (+1) or a thin gap
-    /// (−1) with it ([`blend::vote`]; the neighbours' own votes are not revisited when a field is relocated); NaN where it has none.
+    /// (−1) with it ([`blend::vote`]); NaN where it has none. A relocated field gets its own
+    /// vote; its neighbours' votes are not revisited.
     votes: Vec<f64>,
     /// Every inlier point as a trust witness, where the local fields are thinned
     /// ([`FitParams::centre_spacing`]); `None`: the fields' own points are the witnesses.
@@ -289,7 +290,8 @@ impl GlobalField {
     /// support radius and takes `frame`'s third axis as its normal. Returns the new slot, or
     /// `None` (nothing changed) for a point without a local field, an outlier, or any point of
     /// a thinned field ([`FitParams::centre_spacing`]: a static surface). O(1)
-    /// amortised, unless the field is shared (copy-on-write).
+    /// amortised plus one support-grid lookup for its vote, unless the field is shared
+    /// (copy-on-write).
     pub fn relocate_point(
         &mut self,
         i: usize,
