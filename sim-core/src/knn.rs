@@ -1,7 +1,8 @@
 //! Nearest-neighbour queries over a fixed point set: a k-d tree (`kiddo`'s immutable tree, which
 //! tolerates duplicate and coplanar points) and the k-NN graph used by normals and fits.
 //!
-//! Contract: built once, immutable, `Send + Sync`; [`PointIndex::nearest`] does not allocate.
+//! Contract: built once (a graph may then be shrunk per point, [`KnnGraph::shrink`], before
+//! use), then immutable, `Send + Sync`; [`PointIndex::nearest`] does not allocate.
 
 use glam::DVec3;
 use kiddo::SquaredEuclidean;
@@ -78,6 +79,9 @@ pub struct KnnGraph {
     k: usize,
     neighbours: Vec<u32>,
     distances: Vec<f64>,
+    /// How many of each point's `k` listed neighbours are in use (empty: all of them); see
+    /// [`KnnGraph::shrink`].
+    counts: Vec<u32>,
 }
 
 impl KnnGraph {
@@ -106,10 +110,27 @@ impl KnnGraph {
             k,
             neighbours,
             distances,
+            counts: Vec::new(),
         }
     }
 
-    /// Neighbours per point (including the point itself).
+    /// Use only the first `count(i)` neighbours of each point `i` (clamped to `1..=k`): a
+    /// smaller neighbourhood where the caller finds the nearest ones suffice. `count` sees the
+    /// point's full list of neighbours and distances.
+    pub fn shrink(&mut self, count: impl Fn(usize, &[u32], &[f64]) -> usize + Sync) {
+        let k = self.k;
+        self.counts = (0..self.len())
+            .into_par_iter()
+            .map(|i| {
+                let range = i * k..(i + 1) * k;
+                let c = count(i, &self.neighbours[range.clone()], &self.distances[range]);
+                c.clamp(1, k) as u32
+            })
+            .collect();
+    }
+
+    /// Neighbours per point (including the point itself) before any [`KnnGraph::shrink`]:
+    /// the most any point has.
     pub fn k(&self) -> usize {
         self.k
     }
@@ -126,12 +147,17 @@ impl KnnGraph {
 
     /// Neighbour indices of point `i`, itself first, then by increasing distance.
     pub fn neighbours(&self, i: usize) -> &[u32] {
-        &self.neighbours[i * self.k..(i + 1) * self.k]
+        &self.neighbours[self.range(i)]
     }
 
     /// Distances matching [`KnnGraph::neighbours`].
     pub fn distances(&self, i: usize) -> &[f64] {
-        &self.distances[i * self.k..(i + 1) * self.k]
+        &self.distances[self.range(i)]
+    }
+
+    fn range(&self, i: usize) -> std::ops::Range<usize> {
+        let used = self.counts.get(i).map_or(self.k, |&c| c as usize);
+        i * self.k..i * self.k + used
     }
 
     /// Distance from point `i` to its farthest listed neighbour.
@@ -186,5 +212,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn shrunk_rows_are_prefixes_with_their_own_radius() {
+        let pts = crate::sampling::Shape::Sphere { radius: 1.0 }
+            .sample(2_000, 5)
+            .positions;
+        let index = PointIndex::new(&pts);
+        let full = KnnGraph::build(&pts, &index, 20);
+        let mut shrunk = full.clone();
+        // 0 and past k clamp to 1 and k.
+        shrunk.shrink(|i, hood, dist| {
+            assert_eq!((hood, dist), (full.neighbours(i), full.distances(i)));
+            [0, 7, 14, 30][i % 4]
+        });
+        for i in 0..pts.len() {
+            let used = [1, 7, 14, 20][i % 4];
+            assert_eq!(shrunk.neighbours(i), &full.neighbours(i)[..used]);
+            assert_eq!(shrunk.distances(i), &full.distances(i)[..used]);
+            assert_eq!(shrunk.radius(i), full.distances(i)[used - 1]);
+        }
+        assert_eq!((shrunk.k(), shrunk.len()), (20, pts.len()));
     }
 }

@@ -84,6 +84,18 @@ pub struct FitParams {
     /// the gap from one side only, carrying that side's curvature across it. 0: none.
     #[serde(default)]
     pub gap_fields: f64,
+    /// Smaller neighbourhoods where they suffice, for a thinned (static) field only: a point
+    /// whose `k_even` nearest (itself included) surround it evenly, their mean offset along
+    /// its tangent plane under [`FitParams::even_lean`] of their radius, fits to those alone,
+    /// following the detail they sample more closely; otherwise to the fewest beyond that
+    /// which do, or to `k`. Its radius, support and trust radius shrink with it. 0 (or ≥ `k`):
+    /// every point uses `k`.
+    #[serde(default)]
+    pub k_even: usize,
+    /// How far a neighbourhood's mean tangent offset may lean, relative to its radius, for
+    /// [`FitParams::k_even`] to count it as surrounding the point.
+    #[serde(default)]
+    pub even_lean: f64,
 }
 
 fn default_normal_weight() -> f64 {
@@ -124,6 +136,8 @@ impl Default for FitParams {
             trust_facing: true,
             centre_spacing: 0.0,
             gap_fields: 0.0,
+            k_even: 0,
+            even_lean: 0.0,
         }
     }
 }

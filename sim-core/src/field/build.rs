@@ -62,6 +62,8 @@ impl GlobalField {
         let mut sorted: Vec<f64> = radii.iter().copied().filter(|r| *r > 0.0).collect();
         sorted.sort_by(f64::total_cmp);
         let typical = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+        // Outliers and the trust radii (`radii`) come from the full neighbourhoods; the fits,
+        // their domains and supports and the thinning from the ones used (`k_even`).
         let outlier = flag_outliers(
             points,
             normals,
@@ -70,6 +72,18 @@ impl GlobalField {
             params.normal_agreement,
             typical,
         );
+        let even;
+        let knn = if params.centre_spacing > 0.0 && (2..knn.k()).contains(&params.k_even) {
+            let mut shrunk = knn.clone();
+            shrunk.shrink(|i, hood, dist| even_count(points, normals, i, hood, dist, params));
+            even = shrunk;
+            &even
+        } else {
+            knn
+        };
+        let small_neighbourhoods = (0..n)
+            .filter(|&i| knn.neighbours(i).len() < knn.k())
+            .count();
         // The points that get a local field (all of them unless thinned), in Morton order.
         let centres = thinned_centres(knn, &outlier, params.centre_spacing);
         let centre_points: Vec<DVec3> = centres.iter().map(|&i| points[i as usize]).collect();
@@ -220,9 +234,53 @@ impl GlobalField {
                 refit: Arc::new(refit),
                 scale,
                 outliers: outlier.iter().filter(|o| **o).count(),
+                small_neighbourhoods,
             }),
         })
     }
+}
+
+/// Least cosine between a point's normal and a neighbour's for [`even_count`] to shrink its
+/// neighbourhood (90°; a neighbour facing against it, below `normal_agreement`, is the other
+/// sheet of a thin part and is skipped instead).
+const EVEN_BEND: f64 = 0.0;
+
+/// How many of point `i`'s neighbours (`hood`, itself first, by distance `dist`) its fit uses
+/// under [`FitParams::k_even`]: the fewest holding `k_even` that face its way (itself included;
+/// the fit ignores the rest) whose mean offset along the point's tangent plane is under
+/// [`FitParams::even_lean`] of their radius, else all of them.
+fn even_count(
+    points: &[DVec3],
+    normals: &[DVec3],
+    i: usize,
+    hood: &[u32],
+    dist: &[f64],
+    params: &FitParams,
+) -> usize {
+    let (p, n) = (points[i], normals[i]);
+    let mut sum = DVec3::ZERO;
+    let mut agreeing = 0;
+    for (m, &j) in hood.iter().enumerate().skip(1) {
+        let facing = normals[j as usize].dot(n);
+        // The other sheet of a thin part: the fit leaves it out, so it does not count.
+        if facing < params.normal_agreement {
+            continue;
+        }
+        // A bend sharper than the neighbourhood (a crease, a tube thinner than the spacing):
+        // the nearest do not sample one sheet, so the fit takes all of them.
+        if facing < EVEN_BEND {
+            return hood.len();
+        }
+        let d = points[j as usize] - p;
+        sum += d - n * d.dot(n);
+        agreeing += 1;
+        if agreeing + 1 >= params.k_even
+            && sum.length() < params.even_lean * dist[m] * agreeing as f64
+        {
+            return m + 1;
+        }
+    }
+    hood.len()
 }
 
 /// The points that get a local field, ascending: every point when `spacing` is 0, else a
@@ -344,5 +402,59 @@ fn validate(
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 9 × 9 grid in the plane z = 0, spacing 1, facing +z; the point at (0, 0) is number 40.
+    fn grid() -> (Vec<DVec3>, Vec<DVec3>) {
+        let points: Vec<DVec3> = (-4..=4)
+            .flat_map(|i| (-4..=4).map(move |j| DVec3::new(i as f64, j as f64, 0.0)))
+            .collect();
+        let normals = vec![DVec3::Z; points.len()];
+        (points, normals)
+    }
+
+    fn count(points: &[DVec3], normals: &[DVec3], i: usize) -> usize {
+        let knn = KnnGraph::build(points, &PointIndex::new(points), 20);
+        let params = FitParams {
+            k_even: 13,
+            even_lean: 0.2,
+            ..FitParams::default()
+        };
+        even_count(
+            points,
+            normals,
+            i,
+            knn.neighbours(i),
+            knn.distances(i),
+            &params,
+        )
+    }
+
+    #[test]
+    fn even_neighbourhoods_shrink_only_where_one_sheet_surrounds_the_point() {
+        let (mut points, mut normals) = grid();
+        // Inside, the 13 nearest (itself, then rings at 1, √2 and 2) surround it exactly.
+        assert_eq!(count(&points, &normals, 40), 13);
+        // At the rim they lean inward by more than 0.2 of their radius: all 20.
+        assert_eq!(count(&points, &normals, 4), 20);
+        // The other sheet of a thin part (facing against it) is skipped, not counted: the
+        // list grows by the skipped points and still shrinks.
+        let sheet = points.len();
+        for p in grid().0 {
+            points.push(p + DVec3::new(0.01, 0.01, 1.5));
+            normals.push(-DVec3::Z);
+        }
+        let n = count(&points, &normals, 40);
+        assert!(n > 13 && n < 20, "{n}");
+        // A neighbour facing more than 90° away (a crease, a thin tube): all 20.
+        points.truncate(sheet);
+        normals.truncate(sheet);
+        normals[41] = DVec3::new(1.0, 0.0, -0.2).normalize();
+        assert_eq!(count(&points, &normals, 40), 20);
     }
 }

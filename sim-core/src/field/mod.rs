@@ -129,6 +129,7 @@ struct FieldData {
     refit: Arc<RefitOperator>,
     scale: f64,
     outliers: usize,
+    small_neighbourhoods: usize,
 }
 
 impl GlobalField {
@@ -176,6 +177,12 @@ impl GlobalField {
     /// Points rejected as outliers (no local field, no support).
     pub fn outlier_count(&self) -> usize {
         self.inner.outliers
+    }
+
+    /// Points fitted to fewer than `k` neighbours, their nearest surrounding them evenly
+    /// ([`FitParams::k_even`]).
+    pub fn small_neighbourhood_count(&self) -> usize {
+        self.inner.small_neighbourhoods
     }
 
     /// Median support radius: the field's length scale (tolerances are relative to it).
@@ -372,6 +379,7 @@ impl Clone for FieldData {
             refit: Arc::clone(&self.refit),
             scale: self.scale,
             outliers: self.outliers,
+            small_neighbourhoods: self.small_neighbourhoods,
         }
     }
 }

@@ -2,6 +2,7 @@
 //! `cargo test -p sim-core --profile ci`.
 
 mod common;
+mod even_neighbourhoods;
 mod field_api;
 mod gaps;
 mod hard_cases;
