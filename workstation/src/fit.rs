@@ -81,6 +81,10 @@ pub struct FitArgs {
     /// 0.00001 is what a sculpting scene fits with, a little more accurate on smooth shapes.
     #[arg(long, default_value_t = FIT_REGULARIZATION)]
     pub regularization: f64,
+    /// Radius of each local field's blending weight, relative to its domain's half-size
+    /// (≤ 1 keeps the support inside the domain).
+    #[arg(long, default_value_t = FitParams::default().support)]
+    pub support: f64,
     /// Trust radius, relative to each point's support radius: the zero set farther than this
     /// from every point is where local fits extrapolate, and is not meshed or touched.
     #[arg(long, default_value_t = FitParams::default().trust)]
@@ -113,6 +117,16 @@ pub struct FitArgs {
     /// default
     #[arg(long, default_value_t = FIT_GAP_FIELDS)]
     pub gap_fields: f64,
+    /// With thinned centres: a point fits to only its k-even nearest where they surround it
+    /// evenly (see --even-lean) and face within 90° of it, so the fit follows the detail
+    /// they sample; else to the fewest beyond that which do, or to k (a rim, a gap, a crease).
+    /// 0: k everywhere.
+    #[arg(long, default_value_t = FIT_K_EVEN)]
+    pub k_even: usize,
+    /// How far the k-even nearest's mean offset along the point's tangent plane may lean,
+    /// relative to their radius, for them to count as surrounding it.
+    #[arg(long, default_value_t = FIT_EVEN_LEAN)]
+    pub even_lean: f64,
     /// Sharp creases (CAD data): move mesh vertices near a crease of two faces onto the faces'
     /// planes and the crease line where a wedge of two planes explains the points there. It
     /// also sharpens a rounding smaller than the point spacing, so it is off by default.
@@ -190,6 +204,9 @@ pub struct FitReport {
     pub local_fields: usize,
     /// Of those, gap fields (`params.gap_fields`): centred between points, not at one.
     pub gap_fields: usize,
+    /// Points fitting to fewer than k neighbours, their nearest surrounding them evenly
+    /// (`params.k_even`).
+    pub small_neighbourhoods: usize,
     /// The reference measured against, if any.
     pub reference: Option<String>,
     /// Length the relative errors are divided by.
@@ -356,6 +373,15 @@ const FIT_CENTRE_SPACING: f64 = 0.35;
 /// the time (docs/BENCHMARKS.md, "Gap fields").
 const FIT_GAP_FIELDS: f64 = 0.12;
 
+/// `fit`'s default [`FitParams::k_even`] and [`FitParams::even_lean`] (the library's: off). On
+/// the MeshLab comparison shapes (resolution 200, the other defaults) against k = 20 at every
+/// point: the armadillo's RMS and coverage 14 % lower, homer's 4 %, the fandisk's max 13 %,
+/// the rocker arm's max 5 %; homer's max 2 % higher; one piece each (docs/BENCHMARKS.md,
+/// "Smaller neighbourhoods"). 14 at every point opened holes in the randomly sampled shapes;
+/// without the 90° guard the cow's thin tail came out in pieces.
+const FIT_K_EVEN: usize = 16;
+const FIT_EVEN_LEAN: f64 = 0.2;
+
 /// `fit`'s default [`FitParams::regularization`], 30× the library's. On the MeshLab comparison
 /// shapes (resolution 200, thinned centres) against 1e-5: RMS 23 % lower on the rounded box,
 /// 21 % on the thin plate, 12 % on the rocker arm, 14 % on the fandisk, the same on the scans
@@ -454,12 +480,15 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         weight_width: args.weight_width,
         normal_weight: args.normal_weight,
         regularization: args.regularization,
+        support: args.support,
         trust: args.trust,
         trust_weight: args.trust_weight,
         trust_plane: args.trust_plane,
         trust_facing: args.trust_facing,
         centre_spacing: args.centre_spacing,
         gap_fields: args.gap_fields,
+        k_even: args.k_even,
+        even_lean: args.even_lean,
         ..FitParams::default()
     };
     let policy = match args.normals {
@@ -571,6 +600,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         outliers: rec.field.outlier_count(),
         local_fields: rec.field.len(),
         gap_fields: rec.field.gap_field_count(),
+        small_neighbourhoods: rec.field.small_neighbourhood_count(),
         reference: reference.as_ref().map(|(name, _)| name.clone()),
         reference_size: reference.as_ref().map(|(_, r)| r.size()),
         surface,
@@ -610,6 +640,15 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
         "fields       {} local fields (centre spacing {}; {} of them gap fields)",
         r.local_fields, r.params.centre_spacing, r.gap_fields
     );
+    if r.params.k_even > 0 {
+        println!(
+            "neighbours   {} points fit to {}–{} (their nearest surround them), the rest to {}",
+            r.small_neighbourhoods,
+            r.params.k_even,
+            r.params.k - 1,
+            r.params.k
+        );
+    }
     println!("k-NN         {:9.4} s", r.knn_s);
     println!("normals      {:9.4} s", r.normals_s);
     println!("fits         {:9.4} s", r.fits_s);
