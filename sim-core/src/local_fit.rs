@@ -85,10 +85,13 @@ pub struct FitParams {
     #[serde(default)]
     pub gap_fields: f64,
     /// Smaller neighbourhoods where they suffice, for a thinned (static) field only: a point
-    /// whose `k_even` nearest (itself included) surround it evenly, their mean offset along
-    /// its tangent plane under [`FitParams::even_lean`] of their radius, fits to those alone,
-    /// following the detail they sample more closely; otherwise to the fewest beyond that
-    /// which do, or to `k`. Its radius, support and trust radius shrink with it. 0 (or ≥ `k`):
+    /// whose `k_even` nearest facing its way (itself included) surround it evenly, their mean
+    /// offset along its tangent plane under [`FitParams::even_lean`] of their radius, fits to
+    /// those alone, following the detail they sample more closely; otherwise to the fewest
+    /// beyond that which do, or to `k`. A neighbour facing more than 90° away (a crease, a
+    /// tube about a spacing thick) keeps `k`; one facing against it (a thin part's other
+    /// sheet, which the fit leaves out) is skipped. The fit's domain and support shrink with
+    /// the neighbourhood; outliers and the trust radius still come from all `k`. 0 (or ≥ `k`):
     /// every point uses `k`.
     #[serde(default)]
     pub k_even: usize,

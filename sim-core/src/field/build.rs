@@ -383,8 +383,9 @@ fn validate(
         p.trust_plane > 0.0,
         (0.0..=1.0).contains(&p.centre_spacing),
         (0.0..1.0).contains(&p.gap_fields),
+        p.even_lean >= 0.0 && p.even_lean.is_finite(),
     ];
-    const WHAT: [&str; 13] = [
+    const WHAT: [&str; 14] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -398,6 +399,7 @@ fn validate(
         "trust_plane must be positive (infinite: no plane test)",
         "centre_spacing must be in [0, 1]",
         "gap_fields must be in [0, 1)",
+        "even_lean must be finite and ≥ 0",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),

@@ -326,6 +326,14 @@ fn bad_parameters_are_errors() {
             gap_fields: f64::NAN,
             ..FitParams::default()
         },
+        FitParams {
+            even_lean: -0.1,
+            ..FitParams::default()
+        },
+        FitParams {
+            even_lean: f64::NAN,
+            ..FitParams::default()
+        },
     ] {
         let r = reconstruct(
             &pts,
