@@ -37,6 +37,8 @@ fn run(args: &[String]) -> Result<(), String> {
         regularization: 3e-4,
         centre_spacing: 0.35,
         gap_fields: 0.12,
+        k_even: 16,
+        even_lean: 0.2,
         ..FitParams::default()
     };
     let params = common::fit_params(fit_defaults, overrides)?;

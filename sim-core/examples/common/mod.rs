@@ -33,6 +33,8 @@ pub fn fit_params(mut params: FitParams, overrides: &[String]) -> Result<FitPara
             "centre_spacing" => params.centre_spacing = v,
             "offset" => params.offset = v,
             "gap_fields" => params.gap_fields = v,
+            "k_even" => params.k_even = v as usize,
+            "even_lean" => params.even_lean = v,
             _ => return Err(format!("{key}: not a fit parameter this probe knows")),
         }
     }

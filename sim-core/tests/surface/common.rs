@@ -12,6 +12,18 @@ pub fn fit(points: &PointSet, params: &FitParams, policy: NormalPolicy) -> Recon
     reconstruct(points, params, policy, &mut IgnoreStages, &NoProgress).expect("fit")
 }
 
+/// `workstation fit`'s defaults for a static surface before its smaller neighbourhoods
+/// (`k_even`): thinned centres with gap fields, positions leading normals.
+pub fn thinned_with_gaps() -> FitParams {
+    FitParams {
+        normal_weight: 0.25,
+        regularization: 3e-4,
+        centre_spacing: 0.35,
+        gap_fields: 0.12,
+        ..FitParams::default()
+    }
+}
+
 pub fn error(field: &GlobalField, reference: &dyn Reference, n: usize) -> ErrorReport {
     let e = zero_set_error(field, reference, n, 0.5, 11);
     eprintln!(

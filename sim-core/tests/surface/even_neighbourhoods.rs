@@ -64,13 +64,9 @@ fn crossing(field: &GlobalField, x: f64, y: f64, truth: f64) -> f64 {
 /// `fit`'s static-surface defaults, with or without the smaller neighbourhoods.
 fn params(k_even: usize) -> FitParams {
     FitParams {
-        normal_weight: 0.25,
-        regularization: 3e-4,
-        centre_spacing: 0.35,
-        gap_fields: 0.12,
         k_even,
         even_lean: 0.2,
-        ..FitParams::default()
+        ..crate::common::thinned_with_gaps()
     }
 }
 

@@ -366,14 +366,7 @@ fn a_thin_parts_far_side_does_not_dent_its_near_side() {
     let shape = Shape::Ellipsoid { radii };
     let n = 10_000;
     let spacing = (shape.area() / n as f64).sqrt();
-    // `workstation fit`'s defaults: thinned centres with gap fields, positions before normals.
-    let params = FitParams {
-        normal_weight: 0.25,
-        regularization: 3e-4,
-        centre_spacing: 0.35,
-        gap_fields: 0.12,
-        ..FitParams::default()
-    };
+    let params = crate::common::thinned_with_gaps();
     let mut dents = Vec::new();
     for seed in 0..4 {
         let points = shape.sample(n, seed);
