@@ -79,9 +79,10 @@ pub struct FitParams {
     /// a field at every point this has no effect): where a centre's neighbours lean to one
     /// side (their mean offset along its tangent plane is at least this fraction of its
     /// neighbourhood radius) and a point lies across the gap on the other side, one more local
-    /// field is fitted at their midpoint, if no point lies within 0.4 radius of it, to that
-    /// place's own `k` nearest points (see [`crate::gaps`]). The points' own fits would reach
-    /// the gap from one side only, carrying that side's curvature across it. 0: none.
+    /// field is fitted in the gap, at the place between them clearest of the points if no point
+    /// lies within 0.4 radius of it, to that place's own `k` nearest points (see
+    /// [`crate::gaps`]). The points' own fits would reach the gap from one side only, carrying
+    /// that side's curvature across it. 0: none.
     #[serde(default)]
     pub gap_fields: f64,
     /// Smaller neighbourhoods where they suffice, for a thinned (static) field only: a point

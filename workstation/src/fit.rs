@@ -111,10 +111,10 @@ pub struct FitArgs {
     pub centre_spacing: f64,
     /// Gap fields (with thinned centres only): where a centre's neighbours lean to one side by
     /// at least this fraction of its neighbourhood radius and a point lies across the gap on
-    /// the other side, one more local field is fitted at their midpoint to that place's own k
-    /// nearest points, so the gap is bridged from both sides, not by the one-sided fits around
-    /// it (which sag: a face sampled only along its rounded edges). 0: none, the library's
-    /// default
+    /// the other side, one more local field is fitted in the gap (the place between them
+    /// clearest of the points) to that place's own k nearest points, so the gap is bridged from
+    /// all sides, not by the one-sided fits around it (which sag or bulge: a face sampled only
+    /// along its edges). 0: none, the library's default
     #[arg(long, default_value_t = FIT_GAP_FIELDS)]
     pub gap_fields: f64,
     /// With thinned centres: a point fits to only its k-even nearest where they surround it
