@@ -113,6 +113,7 @@ impl GlobalField {
             let acc = &mut groups[usize::from(normal.dot(n_ref) < 0.0)];
             let dist = dist2.sqrt();
             let (phi, dphi) = weight(dist / r);
+            let (phi, dphi) = (phi * d.misfit[i], dphi * d.misfit[i]);
             let [u, v, w] = fr.to_local(x);
             let vote = d.votes[i];
             let votes = !vote.is_nan();

@@ -105,15 +105,22 @@ impl GlobalField {
             half: 1.0,
         };
         let mut frames = vec![unfitted; n];
+        let mut misfit = vec![1.0; n];
         const BLOCK: usize = 512;
         coeffs
             .par_chunks_mut(c * BLOCK)
             .zip(frames.par_chunks_mut(BLOCK))
+            .zip(misfit.par_chunks_mut(BLOCK))
             .enumerate()
             .for_each_init(
                 || (FitScratch::new(params.size), Vec::new(), Vec::new()),
-                |(scratch, hp, hn), (block, (cs, fs))| {
-                    for (o, (coef, frame)) in cs.chunks_mut(c).zip(fs.iter_mut()).enumerate() {
+                |(scratch, hp, hn), (block, ((cs, fs), qs))| {
+                    for (o, ((coef, frame), q)) in cs
+                        .chunks_mut(c)
+                        .zip(fs.iter_mut())
+                        .zip(qs.iter_mut())
+                        .enumerate()
+                    {
                         let i = order[block * BLOCK + o] as usize;
                         hp.clear();
                         hn.clear();
@@ -131,6 +138,7 @@ impl GlobalField {
                             fallback_radius: typical,
                         };
                         *frame = fit_local(&hood, params, scratch, coef);
+                        *q = misfit_factor(frame, coef, hp, hn, params);
                     }
                     progress.advance(fs.len());
                 },
@@ -149,6 +157,7 @@ impl GlobalField {
             let first = frames.len();
             frames.resize(first + sites.len(), unfitted);
             coeffs.resize((first + sites.len()) * c, 0.0);
+            misfit.resize(first + sites.len(), 1.0);
             fit_gap_fields(
                 &sites,
                 points,
@@ -159,6 +168,7 @@ impl GlobalField {
                 typical,
                 &mut frames[first..],
                 &mut coeffs[first * c..],
+                &mut misfit[first..],
             );
             sites
         } else {
@@ -230,6 +240,7 @@ impl GlobalField {
                 first_gap: n,
                 grid,
                 votes,
+                misfit,
                 witnesses,
                 refit: Arc::new(refit),
                 scale,
@@ -313,7 +324,8 @@ fn thinned_centres(knn: &KnnGraph, outlier: &[bool], spacing: f64) -> Vec<u32> {
 }
 
 /// Fit a local field at each gap site to the site's own `k` nearest inlier points, on all
-/// cores, into `frames` and `coeffs` (one frame and `size³` coefficients per site, in order).
+/// cores, into `frames`, `coeffs` and `misfit` (one frame, `size³` coefficients and one
+/// [`misfit_factor`] per site, in order).
 #[allow(clippy::too_many_arguments)]
 fn fit_gap_fields(
     sites: &[GapSite],
@@ -325,14 +337,16 @@ fn fit_gap_fields(
     typical: f64,
     frames: &mut [LocalFrame],
     coeffs: &mut [f64],
+    misfit: &mut [f64],
 ) {
     coeffs
         .par_chunks_mut(params.size.pow(3))
         .zip(frames.par_iter_mut())
+        .zip(misfit.par_iter_mut())
         .zip(sites.par_iter())
         .for_each_init(
             || (FitScratch::new(params.size), Vec::new(), Vec::new()),
-            |(scratch, hp, hn), ((coef, frame), site)| {
+            |(scratch, hp, hn), (((coef, frame), q), site)| {
                 hp.clear();
                 hn.clear();
                 for (j, _) in index.nearest_k(site.centre, params.k) {
@@ -349,8 +363,39 @@ fn fit_gap_fields(
                     fallback_radius: typical,
                 };
                 *frame = fit_local(&hood, params, scratch, coef);
+                *q = misfit_factor(frame, coef, hp, hn, params);
             },
         );
+}
+
+/// The factor [`FitParams::misfit_width`] puts on a local field's blending weight:
+/// `1 / (1 + (m / (misfit_width · half))²)`, where `m` is the RMS of the fitted field's value
+/// at the points its fit used (those facing its way) and `half` its domain's half edge; 1
+/// without the option or for a field at every point (a sculpting scene's, which is refitted).
+fn misfit_factor(
+    frame: &LocalFrame,
+    coef: &[f64],
+    points: &[DVec3],
+    normals: &[DVec3],
+    params: &FitParams,
+) -> f64 {
+    if params.misfit_width <= 0.0 || params.centre_spacing <= 0.0 {
+        return 1.0;
+    }
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (p, n) in points.iter().zip(normals) {
+        // The other sheet of a thin part: the fit leaves it out, and so does its misfit.
+        if n.dot(frame.axes[2]) < params.normal_agreement {
+            continue;
+        }
+        let [u, v, w] = frame.to_local(*p);
+        let f = crate::bspline::eval3_value(params.size, coef, u, v, w);
+        sum += f * f;
+        count += 1;
+    }
+    let misfit = (sum / count.max(1) as f64).sqrt();
+    let e = misfit / (params.misfit_width * frame.half);
+    1.0 / (1.0 + e * e)
 }
 
 fn validate(
@@ -384,8 +429,9 @@ fn validate(
         (0.0..=1.0).contains(&p.centre_spacing),
         (0.0..1.0).contains(&p.gap_fields),
         p.even_lean >= 0.0 && p.even_lean.is_finite(),
+        p.misfit_width >= 0.0 && p.misfit_width.is_finite(),
     ];
-    const WHAT: [&str; 14] = [
+    const WHAT: [&str; 15] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -400,6 +446,7 @@ fn validate(
         "centre_spacing must be in [0, 1]",
         "gap_fields must be in [0, 1)",
         "even_lean must be finite and ≥ 0",
+        "misfit_width must be finite and ≥ 0",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),

@@ -123,6 +123,10 @@ struct FieldData {
     /// (−1) with it ([`blend::vote`]); NaN where it has none. A relocated field gets its own
     /// vote; its neighbours' votes are not revisited.
     votes: Vec<f64>,
+    /// Per slot, the factor on its blending weight for how well its fit follows its own points
+    /// ([`FitParams::misfit_width`]); 1 for every slot without that option, and for relocated
+    /// fields (a field with the option is static).
+    misfit: Vec<f64>,
     /// Every inlier point as a trust witness, where the local fields are thinned
     /// ([`FitParams::centre_spacing`]); `None`: the fields' own points are the witnesses.
     witnesses: Option<Witnesses>,
@@ -328,6 +332,7 @@ impl GlobalField {
         let agreement = data.params.normal_agreement;
         let vote = blend::vote(&data.frames, &data.support, &data.grid, agreement, s);
         data.votes.push(vote);
+        data.misfit.push(1.0);
         Some(s)
     }
 
@@ -375,6 +380,7 @@ impl Clone for FieldData {
             first_gap: self.first_gap,
             grid: self.grid.clone(),
             votes: self.votes.clone(),
+            misfit: self.misfit.clone(),
             witnesses: self.witnesses.clone(),
             refit: Arc::clone(&self.refit),
             scale: self.scale,

@@ -334,6 +334,14 @@ fn bad_parameters_are_errors() {
             even_lean: f64::NAN,
             ..FitParams::default()
         },
+        FitParams {
+            misfit_width: -0.01,
+            ..FitParams::default()
+        },
+        FitParams {
+            misfit_width: f64::INFINITY,
+            ..FitParams::default()
+        },
     ] {
         let r = reconstruct(
             &pts,

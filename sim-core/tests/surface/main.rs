@@ -8,6 +8,7 @@ mod gaps;
 mod hard_cases;
 mod io_formats;
 mod meshing;
+mod misfit;
 mod real_scan;
 mod trusted;
 mod untrusted_input;
