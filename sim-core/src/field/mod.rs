@@ -2,8 +2,9 @@
 //! supported weights, `f(x) = Σ sᵢ(x) φᵢ(x) / Σ φᵢ(x)`, with the nearest point's signed distance
 //! where no support covers `x` (a field at every point, or at a thinned subset of them for a
 //! static surface, [`FitParams::centre_spacing`], whose trust tests still consult every
-//! point, plus fields centred in the gaps between them, [`FitParams::gap_fields`]); where the
-//! covering fields come from the two opposite sides of
+//! point, plus fields centred in the gaps between them, [`FitParams::gap_fields`], and each
+//! static field's weight scaled down by how far its fit misses its own points,
+//! [`FitParams::misfit_width`]); where the covering fields come from the two opposite sides of
 //! a thin solid or gap, the sides are blended apart and combined by max / min (which one
 //! decided by the covering fields' votes, fixed at the fit), a side with a small share of the
 //! weight keeping its veto only where its own tangent planes agree (see
