@@ -92,7 +92,6 @@ fn a_noisy_patch_bends_its_clean_neighbour_less_when_fits_weigh_their_misfit() {
             same[band]
         );
     }
-    // On this grid the thinning keeps every point (the nearest lie farther apart than 0.35
-    // of a neighbourhood radius), so the same fields differ only in how they are weighed.
+    // A field at every point (centre spacing 0) is never weighed: the width changes nothing.
     assert_eq!(heights(0.01, 0.0), heights(0.0, 0.0));
 }
