@@ -105,7 +105,7 @@ pub struct FitParams {
     /// where `m` is the RMS of its value at the points its fit used and `half` its domain's half
     /// edge, so a fit that cannot follow its points (two sheets meeting in a corner tighter than
     /// its domain) gives way to its neighbours' better ones; at `m = misfit_width·half` it has
-    /// half its weight. On the bench's shapes the fits' median misfit is 0.1–2 % of `half`,
+    /// half its weight. On the bench's shapes the fits' median misfit is 0–2 % of `half`,
     /// their largest 2–4 %. 0: every field weighs the same.
     #[serde(default)]
     pub misfit_width: f64,

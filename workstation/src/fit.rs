@@ -131,7 +131,7 @@ pub struct FitArgs {
     /// follows its own points, half its weight where their RMS misfit is this fraction of its
     /// domain's half edge, so a fit that cannot follow them (two sheets meeting in a corner
     /// tighter than its domain, as at the corner of a mouth) gives way to its neighbours'. The
-    /// fits' median misfit is 0.1–2 % of the half edge. 0: every field weighs the same
+    /// fits' median misfit is 0–2 % of the half edge. 0: every field weighs the same
     #[arg(long, default_value_t = FIT_MISFIT_WIDTH)]
     pub misfit_width: f64,
     /// Sharp creases (CAD data): move mesh vertices near a crease of two faces onto the faces'
@@ -391,9 +391,10 @@ const FIT_EVEN_LEAN: f64 = 0.2;
 
 /// `fit`'s default [`FitParams::misfit_width`] (the library's is 0: every field weighs the
 /// same). On the MeshLab comparison shapes (resolution 200, the other defaults) against 0:
-/// homer's max 19 % lower (its worst spot, the corner of the mouth, is gone), the armadillo's
-/// 5 %; the rest within 2 %, one piece each (docs/BENCHMARKS.md, "Fits weighed by their
-/// misfit"). 0.01 also lowers the rocker arm's max 11 % but raises the bunny's 18 %.
+/// homer's max 22 % lower (its worst spot, the corner of the mouth, is gone), the rocker
+/// arm's 3 %; cheburashka's RMS 4 % higher (still ahead of APSS); the rest within 2.5 %, one
+/// piece each (docs/BENCHMARKS.md, "Fits weighed by their misfit"). 0.01 also lowers the
+/// rocker arm's max 11 % but raises the bunny's 18 %.
 const FIT_MISFIT_WIDTH: f64 = 0.035;
 
 /// `fit`'s default [`FitParams::regularization`], 30× the library's. On the MeshLab comparison
