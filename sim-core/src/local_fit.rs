@@ -230,6 +230,32 @@ pub struct Neighbourhood<'a> {
     pub fallback_radius: f64,
 }
 
+/// Whether a local fit about `normal` uses a neighbour whose normal is `neighbour`: not the
+/// other sheet of a thin part, facing against it (below [`FitParams::normal_agreement`]).
+fn fit_uses(neighbour: DVec3, normal: DVec3, params: &FitParams) -> bool {
+    neighbour.dot(normal) >= params.normal_agreement
+}
+
+/// How far a local field fitted by [`fit_local`] (its `frame` and `coeffs`) misses the points
+/// of `hood` that its fit used: the RMS of its value there, in world units (0 with none).
+pub fn fit_misfit(
+    hood: &Neighbourhood<'_>,
+    params: &FitParams,
+    frame: &LocalFrame,
+    coeffs: &[f64],
+) -> f64 {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (p, n) in hood.points.iter().zip(hood.normals) {
+        if fit_uses(*n, frame.axes[2], params) {
+            let [u, v, w] = frame.to_local(*p);
+            let f = crate::bspline::eval3_value(params.size, coeffs, u, v, w);
+            sum += f * f;
+            count += 1;
+        }
+    }
+    (sum / count.max(1) as f64).sqrt()
+}
+
 /// Fit the local field of one point; writes `size³` world-unit coefficients into `coeffs` and
 /// returns the frame. `hood.points.len()` ≤ 64 rows are expected; more are used but cost more.
 pub fn fit_local(
@@ -243,7 +269,7 @@ pub fn fit_local(
     debug_assert_eq!(coeffs.len(), c);
     let normal = hood.normal.try_normalize().unwrap_or(DVec3::Z);
     let (t1, t2) = tangent_frame(normal);
-    let usable = |j: usize| hood.normals[j].dot(normal) >= params.normal_agreement;
+    let usable = |j: usize| fit_uses(hood.normals[j], normal, params);
     let mut r = 0.0f64;
     for j in 0..hood.points.len() {
         if usable(j) {

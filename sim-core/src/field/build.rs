@@ -10,7 +10,7 @@ use super::{FieldData, FieldError, GlobalField, NO_LOCAL, Progress, Witnesses};
 use crate::bspline::{MAX_SIZE, RefitOperator};
 use crate::gaps::GapSite;
 use crate::knn::{KnnGraph, PointIndex};
-use crate::local_fit::{FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local};
+use crate::local_fit::{FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local, fit_misfit};
 use crate::outliers::flag_outliers;
 use crate::spatial::SupportGrid;
 
@@ -138,7 +138,7 @@ impl GlobalField {
                             fallback_radius: typical,
                         };
                         *frame = fit_local(&hood, params, scratch, coef);
-                        *q = misfit_factor(frame, coef, hp, hn, params);
+                        *q = misfit_factor(&hood, params, frame, coef);
                     }
                     progress.advance(fs.len());
                 },
@@ -363,38 +363,25 @@ fn fit_gap_fields(
                     fallback_radius: typical,
                 };
                 *frame = fit_local(&hood, params, scratch, coef);
-                *q = misfit_factor(frame, coef, hp, hn, params);
+                *q = misfit_factor(&hood, params, frame, coef);
             },
         );
 }
 
 /// The factor [`FitParams::misfit_width`] puts on a local field's blending weight:
-/// `1 / (1 + (m / (misfit_width · half))²)`, where `m` is the RMS of the fitted field's value
-/// at the points its fit used (those facing its way) and `half` its domain's half edge; 1
-/// without the option or for a field at every point (a sculpting scene's, which is refitted).
+/// `1 / (1 + (m / (misfit_width · half))²)`, where `m` is the fit's [`fit_misfit`] at its own
+/// neighbourhood and `half` its domain's half edge; 1 without the option or for a field at
+/// every point (a sculpting scene's, which is refitted).
 fn misfit_factor(
-    frame: &LocalFrame,
-    coef: &[f64],
-    points: &[DVec3],
-    normals: &[DVec3],
+    hood: &Neighbourhood<'_>,
     params: &FitParams,
+    frame: &LocalFrame,
+    coeffs: &[f64],
 ) -> f64 {
     if params.misfit_width <= 0.0 || params.centre_spacing <= 0.0 {
         return 1.0;
     }
-    let (mut sum, mut count) = (0.0, 0usize);
-    for (p, n) in points.iter().zip(normals) {
-        // The other sheet of a thin part: the fit leaves it out, and so does its misfit.
-        if n.dot(frame.axes[2]) < params.normal_agreement {
-            continue;
-        }
-        let [u, v, w] = frame.to_local(*p);
-        let f = crate::bspline::eval3_value(params.size, coef, u, v, w);
-        sum += f * f;
-        count += 1;
-    }
-    let misfit = (sum / count.max(1) as f64).sqrt();
-    let e = misfit / (params.misfit_width * frame.half);
+    let e = fit_misfit(hood, params, frame, coeffs) / (params.misfit_width * frame.half);
     1.0 / (1.0 + e * e)
 }
 
