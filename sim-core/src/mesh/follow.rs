@@ -193,17 +193,19 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
                     .map(|&c| {
                         let f = corners(c).map(|n| value_of(&blocks, n));
                         let guess = first_guess(&f)?;
-                        let p = spec.node_position(c[0], c[1], c[2]) + guess * h;
+                        let cell_lo = spec.node_position(c[0], c[1], c[2]);
+                        let p = cell_lo + guess * h;
                         // The guess lies in the cell, inside the box its first corner's block
                         // list was gathered for (the index answers if rounding put it a hair
                         // outside).
                         let b = home(c);
-                        let (lo, hi) = block_box(spec, b);
-                        let facing = if p.cmpge(lo).all() && p.cmple(hi).all() {
-                            field.trusted_facing_near(p, &lists[&block_id(b)])
-                        } else {
-                            field.trusted_facing(p)
-                        };
+                        let facing = super::cell_facing(
+                            field,
+                            p,
+                            (cell_lo, h),
+                            &lists[&block_id(b)],
+                            block_box(spec, b),
+                        );
                         let kept =
                             facing.filter(|&n| field.faces_its_points(corner_gradient(&f), n));
                         kept.map(|n| (f, n))

@@ -1,6 +1,7 @@
 //! Integration tests of the point-set surface, built into one binary. Run the numerics with
 //! `cargo test -p sim-core --profile ci`.
 
+mod coarse_grid;
 mod common;
 mod even_neighbourhoods;
 mod field_api;
