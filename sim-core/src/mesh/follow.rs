@@ -5,7 +5,8 @@
 //! the crossed cells (2–3 per vertex on a smooth surface), where pruning a narrow band by a
 //! slope bound evaluated 10–15 per vertex.
 //!
-//! The walk stops at cells whose first vertex guess is not trusted, or where the zero set faces
+//! The walk stops at cells whose vertex is not trusted (its first guess, or where that guess
+//! projects onto the zero set: `cell_facing`), or where the zero set faces
 //! against the points vouching for it ([`GlobalField::trusted_facing_near`]: the back of a
 //! bump one noisy point's fit makes), so it meshes the trusted zero set connected to the points:
 //! a piece of zero set that no point's cell leads to (a fragment the points do not support) is

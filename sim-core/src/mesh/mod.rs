@@ -3,8 +3,9 @@
 //! zero set), one quad per crossed grid edge, oriented so triangle normals point outward.
 //!
 //! Only the trusted zero set is meshed ([`GlobalField::trusted_facing_near`]): a cell emits a
-//! vertex when its first guess is trusted (near the points, covered, near their planes) and the
-//! zero set there faces the way those points do, so sheets and blobs where local fits
+//! vertex only where it is trusted (near the points, covered, near their planes), judged at
+//! its first guess or, where that is not, at the guess's projection onto the zero set (a grid
+//! coarse for the part puts the crossings' mean off the surface), and the zero set there faces the way those points do, so sheets and blobs where local fits
 //! extrapolate, inverted bumps of noisy points, and sign changes of the nearest-point fallback
 //! far from the surface, leave no geometry. [`extract_zero_set`] finds the cells by walking the
 //! trusted zero set from the points' cells (`follow.rs`): it evaluates about the corners of the
@@ -12,7 +13,8 @@
 //! [`MeshOptions`] can leave vertices at the edge crossings' mean (to measure what projecting
 //! them gains) and move vertices near sharp creases onto the faces' wedge (`features.rs`).
 //! [`extract_zero_set_dense`] evaluates every node and scans every cell: on a surface the points
-//! support everywhere it gives the same mesh, bit for bit.
+//! support everywhere it gives the same triangles, bit for bit (it may also place a lone vertex
+//! no triangle uses, in a cell no crossed neighbour leads the walk to).
 //!
 //! Contract: vertices are finite; deterministic for a field and grid.
 
@@ -237,7 +239,7 @@ pub struct MeshStats {
     pub blocks_meshed: usize,
     /// Cells the walk along the zero set visited (0 for dense meshing).
     pub cells_visited: usize,
-    /// Cells with a sign change whose first guess was trusted and projected.
+    /// Cells with a sign change whose vertex was trusted, projected.
     pub projections: usize,
     /// Newton steps those projections took in all.
     pub newton_steps: usize,
@@ -324,7 +326,7 @@ const GROUPS: usize = BLOCK.div_ceil(2);
 
 /// Mesh `blocks`, with their node values `given` (NaN where not evaluated; from the walk) or
 /// else evaluated at every node; with `crossed` (the walk's trusted crossed cells) vertices go
-/// only there, else in every cell with a sign change whose first guess is trusted.
+/// only there, else in every cell with a sign change whose vertex is trusted ([`cell_facing`]).
 fn extract_blocks(
     field: &GlobalField,
     spec: &GridSpec,
