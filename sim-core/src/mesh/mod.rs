@@ -5,8 +5,9 @@
 //! Only the trusted zero set is meshed ([`GlobalField::trusted_facing_near`]): a cell emits a
 //! vertex only where it is trusted (near the points, covered, near their planes), judged at
 //! its first guess or, where that is not, at the guess's projection onto the zero set (a grid
-//! coarse for the part puts the crossings' mean off the surface), and the zero set there faces the way those points do, so sheets and blobs where local fits
-//! extrapolate, inverted bumps of noisy points, and sign changes of the nearest-point fallback
+//! coarse for the part puts the crossings' mean off the surface), and the zero set there faces
+//! the way those points do, so sheets and blobs where local fits extrapolate, inverted bumps of
+//! noisy points, and sign changes of the nearest-point fallback
 //! far from the surface, leave no geometry. [`extract_zero_set`] finds the cells by walking the
 //! trusted zero set from the points' cells (`follow.rs`): it evaluates about the corners of the
 //! crossed cells (cost ∝ surface, not box) and meshes no piece that no point leads to.
