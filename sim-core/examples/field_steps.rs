@@ -39,6 +39,7 @@ fn run(args: &[String]) -> Result<(), String> {
         gap_fields: 0.12,
         k_even: 16,
         even_lean: 0.2,
+        misfit_width: 0.035,
         ..FitParams::default()
     };
     let params = common::fit_params(fit_defaults, overrides)?;

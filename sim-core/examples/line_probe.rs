@@ -11,8 +11,10 @@
 //!
 //! `HALF` is the half-length of the searched segment (world units). Keys override the library's
 //! [`FitParams`]: `k`, `weight_width`, `normal_weight`, `regularization`, `centre_spacing`,
-//! `offset`, `gap_fields`. `workstation fit`'s defaults are `normal_weight=0.25
-//! regularization=3e-4 centre_spacing=0.35 gap_fields=0.12`. Crossings are offsets along `N` from `C`; `-` means none in the segment.
+//! `offset`, `gap_fields`, `k_even`, `even_lean`, `misfit_width`. `workstation fit`'s
+//! defaults are `normal_weight=0.25 regularization=3e-4 centre_spacing=0.35 gap_fields=0.12
+//! k_even=16 even_lean=0.2 misfit_width=0.035`. Crossings are offsets along `N` from `C`; `-`
+//! means none in the segment.
 mod common;
 
 use std::process::ExitCode;

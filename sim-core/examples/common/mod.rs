@@ -35,6 +35,7 @@ pub fn fit_params(mut params: FitParams, overrides: &[String]) -> Result<FitPara
             "gap_fields" => params.gap_fields = v,
             "k_even" => params.k_even = v as usize,
             "even_lean" => params.even_lean = v,
+            "misfit_width" => params.misfit_width = v,
             _ => return Err(format!("{key}: not a fit parameter this probe knows")),
         }
     }

@@ -3,12 +3,11 @@
 use std::collections::HashMap;
 
 use glam::DVec3;
-use sim_core::FitParams;
 use sim_core::mesh::{TriMesh, extract_zero_set};
 use sim_core::reconstruct::NormalPolicy;
 use sim_core::sampling::Shape;
 
-use crate::common::fit;
+use crate::common::{fit, fit_defaults};
 
 /// Edges that one triangle alone uses, after merging vertices at one position: the rims of
 /// holes.
@@ -38,16 +37,7 @@ fn open_edges(mesh: &TriMesh) -> usize {
 /// the zero set. `workstation fit`'s defaults for a static surface.
 #[test]
 fn parts_two_to_three_cells_thick_mesh_whole_on_a_coarse_grid() {
-    let params = FitParams {
-        normal_weight: 0.25,
-        regularization: 3e-4,
-        centre_spacing: 0.35,
-        gap_fields: 0.12,
-        k_even: 16,
-        even_lean: 0.2,
-        misfit_width: 0.035,
-        ..FitParams::default()
-    };
+    let params = fit_defaults();
     let cases = [
         (
             Shape::Torus {

@@ -24,6 +24,17 @@ pub fn thinned_with_gaps() -> FitParams {
     }
 }
 
+/// `workstation fit`'s defaults for a static surface: [`thinned_with_gaps`] with smaller
+/// neighbourhoods where the nearest 16 surround a point, and fits weighed by their misfit.
+pub fn fit_defaults() -> FitParams {
+    FitParams {
+        k_even: 16,
+        even_lean: 0.2,
+        misfit_width: 0.035,
+        ..thinned_with_gaps()
+    }
+}
+
 pub fn error(field: &GlobalField, reference: &dyn Reference, n: usize) -> ErrorReport {
     let e = zero_set_error(field, reference, n, 0.5, 11);
     eprintln!(
