@@ -263,6 +263,9 @@ pub struct MeshProfile {
     /// 20 listed).
     pub components: usize,
     pub component_triangles: Vec<usize>,
+    /// Edges one triangle alone uses (vertices at one position merged): the rims of holes and
+    /// of open surfaces, 0 for a closed one. A part thinner than about 1.5 cells shows here.
+    pub open_edges: usize,
     /// Trusted first guesses projected onto the zero set.
     pub projections: usize,
     /// Newton steps those took.
@@ -571,6 +574,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             cells_visited: stats.cells_visited,
             components: sizes.len(),
             component_triangles: sizes.iter().copied().take(20).collect(),
+            open_edges: mesh.open_edges(),
             projections: stats.projections,
             newton_steps: stats.newton_steps,
             inverted: stats.inverted,
@@ -689,12 +693,19 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
     if let Some(p) = &r.mesh_profile {
         let t = &p.timings;
         println!(
-            "             {} connected component(s){}",
+            "             {} connected component(s){}, {} open edge(s){}",
             p.components,
             if p.components > 1 {
-                format!(", triangles {:?}", p.component_triangles)
+                format!(" (triangles {:?})", p.component_triangles)
             } else {
                 String::new()
+            },
+            p.open_edges,
+            if p.open_edges > 0 {
+                " (rims of holes or of an open surface; a part thinner than ~1.5 cells loses \
+                 triangles: raise --resolution)"
+            } else {
+                ""
             }
         );
         println!(
@@ -785,6 +796,11 @@ pub struct MeshErrorReport {
     pub pieces: usize,
     /// Connected pieces of the reference, when it is a mesh.
     pub reference_pieces: Option<usize>,
+    /// Edges of the mesh that one triangle alone uses (vertices at the same position merged):
+    /// the rims of its holes and open borders.
+    pub open_edges: usize,
+    /// The same of the reference, when it is a mesh.
+    pub reference_open_edges: Option<usize>,
     /// Mesh → reference, relative.
     pub to_reference: Distances,
     /// Reference → mesh (coverage), relative.
@@ -808,7 +824,7 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
     let mesh = read_file(&args.mesh)?
         .mesh
         .with_context(|| format!("{} has no faces", args.mesh.display()))?;
-    let mut reference_pieces = None;
+    let (mut reference_pieces, mut reference_open_edges) = (None, None);
     let reference: Box<dyn Reference> = match parse_reference(&args.reference)? {
         ReferenceSpec::None => bail!("--reference none: mesh-error needs a reference"),
         ReferenceSpec::Shape(shape) => Box::new(shape),
@@ -817,6 +833,7 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
                 .mesh
                 .with_context(|| format!("{} has no faces", path.display()))?;
             reference_pieces = Some(truth.pieces());
+            reference_open_edges = Some(truth.open_edges());
             Box::new(MeshReference::new(truth).context("reference mesh has no triangles")?)
         }
     };
@@ -853,6 +870,8 @@ pub fn run_mesh_error(args: &MeshErrorArgs) -> anyhow::Result<MeshErrorReport> {
         triangles: mesh.triangles.len(),
         pieces: mesh.pieces(),
         reference_pieces,
+        open_edges: mesh.open_edges(),
+        reference_open_edges,
         to_reference,
         coverage,
         by_spacing,
@@ -867,15 +886,18 @@ pub fn print_mesh_error(r: &MeshErrorReport, json: bool) -> anyhow::Result<()> {
     }
     let d = distances_text;
     println!(
-        "mesh         {} ({} triangles, {} connected piece(s))",
-        r.mesh, r.triangles, r.pieces
+        "mesh         {} ({} triangles, {} connected piece(s), {} open edge(s))",
+        r.mesh, r.triangles, r.pieces, r.open_edges
     );
     println!(
         "reference    {} (size {:.6e} m{})",
         r.reference,
         r.reference_size,
         r.reference_pieces
-            .map_or(String::new(), |n| format!(", {n} connected piece(s)"))
+            .zip(r.reference_open_edges)
+            .map_or(String::new(), |(n, e)| format!(
+                ", {n} connected piece(s), {e} open edge(s)"
+            ))
     );
     println!(
         "mesh → ref   {} ({} samples each way, max also over every vertex; relative to the size)",

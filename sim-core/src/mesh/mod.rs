@@ -115,17 +115,7 @@ impl TriMesh {
     /// at exactly the same position (files that split vertices by normal or texture
     /// coordinate, as OBJ exporters do, would otherwise count every face apart).
     pub fn pieces(&self) -> usize {
-        let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(self.vertices.len());
-        let remap: Vec<u32> = self
-            .vertices
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                *first
-                    .entry(p.to_array().map(f64::to_bits))
-                    .or_insert(i as u32)
-            })
-            .collect();
+        let remap = self.welded_ids();
         let welded = TriMesh {
             vertices: self.vertices.clone(),
             normals: Vec::new(),
@@ -136,6 +126,35 @@ impl TriMesh {
                 .collect(),
         };
         welded.components().1.len()
+    }
+
+    /// Edges that one triangle alone uses, after merging vertices at exactly the same position
+    /// (as [`TriMesh::pieces`]): the rims of holes and of open surfaces; 0 for a closed
+    /// surface. A part thinner than the cells it was meshed on shows here.
+    pub fn open_edges(&self) -> usize {
+        let id = self.welded_ids();
+        let mut uses: HashMap<(u32, u32), u32> = HashMap::with_capacity(3 * self.triangles.len());
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (id[t[k] as usize], id[t[(k + 1) % 3] as usize]);
+                *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        uses.values().filter(|&&n| n == 1).count()
+    }
+
+    /// Each vertex's id after merging vertices at exactly the same position: the first of them.
+    fn welded_ids(&self) -> Vec<u32> {
+        let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(self.vertices.len());
+        self.vertices
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                *first
+                    .entry(p.to_array().map(f64::to_bits))
+                    .or_insert(i as u32)
+            })
+            .collect()
     }
 
     /// The vertices some triangle uses, each once (a file's stray vertices left out).
@@ -792,5 +811,25 @@ mod tests {
         split.vertices[4] = split.vertices[0];
         assert_eq!(split.components().1.len(), 2);
         assert_eq!(split.pieces(), 1);
+    }
+
+    #[test]
+    fn open_edges_count_the_rims_of_holes_after_welding() {
+        let tetrahedron = TriMesh {
+            vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+            normals: Vec::new(),
+            triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+        };
+        assert_eq!(tetrahedron.open_edges(), 0);
+        // One face gone: its three edges are a hole's rim.
+        let mut open = tetrahedron.clone();
+        open.triangles.pop();
+        assert_eq!(open.open_edges(), 3);
+        // A face with its own copies of its corners (as a file may split them) still closes.
+        let mut split = tetrahedron.clone();
+        split.vertices.extend([DVec3::ZERO, DVec3::Z, DVec3::Y]);
+        split.triangles[3] = [4, 5, 6];
+        assert_eq!(split.open_edges(), 0);
+        assert_eq!(split.components().1.len(), 2);
     }
 }

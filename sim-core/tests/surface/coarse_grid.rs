@@ -1,33 +1,11 @@
 //! Meshing on a grid coarse for the part: a tube or a slab two to three cells thick.
 
-use std::collections::HashMap;
-
 use glam::DVec3;
-use sim_core::mesh::{TriMesh, extract_zero_set};
+use sim_core::mesh::extract_zero_set;
 use sim_core::reconstruct::NormalPolicy;
 use sim_core::sampling::Shape;
 
 use crate::common::{fit, fit_defaults};
-
-/// Edges that one triangle alone uses, after merging vertices at one position: the rims of
-/// holes.
-fn open_edges(mesh: &TriMesh) -> usize {
-    let mut first: HashMap<[u64; 3], u32> = HashMap::new();
-    let id: Vec<u32> = (0..mesh.vertices.len())
-        .map(|i| {
-            let key = mesh.vertices[i].to_array().map(f64::to_bits);
-            *first.entry(key).or_insert(i as u32)
-        })
-        .collect();
-    let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in &mesh.triangles {
-        for k in 0..3 {
-            let (a, b) = (id[t[k] as usize], id[t[(k + 1) % 3] as usize]);
-            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    uses.values().filter(|&&n| n == 1).count()
-}
 
 /// The armadillo's ears and claws at resolution 100 are one to three cells thick. There the
 /// surface-nets first guess of a cell (the mean of its edge crossings) lies off the surface,
@@ -71,7 +49,7 @@ fn parts_two_to_three_cells_thick_mesh_whole_on_a_coarse_grid() {
         for resolution in resolutions {
             let mesh = extract_zero_set(&rec.field, bounds, resolution);
             let cell = (bounds.1 - bounds.0).max_element() / resolution as f64;
-            let (pieces, open) = (mesh.pieces(), open_edges(&mesh));
+            let (pieces, open) = (mesh.pieces(), mesh.open_edges());
             let area = mesh.area() / shape.area();
             eprintln!(
                 "{shape:?} R {resolution}: {:.2} cells thick, {pieces} pieces, {open} open \

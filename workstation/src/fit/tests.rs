@@ -163,6 +163,11 @@ fn mesh_error_measures_fits_mesh_like_fit_does_and_names_bad_input() {
     );
     assert!(r.to_reference.max < 1e-3 && r.coverage.max < 1e-2, "{r:?}");
     assert_eq!(Some(r.triangles), fit.mesh_triangles);
+    // A closed sphere: one piece, no open edge, as `fit` counted them too.
+    let profile = fit.mesh_profile.as_ref().unwrap();
+    assert_eq!((r.pieces, r.open_edges), (1, 0), "{r:?}");
+    assert_eq!((profile.components, profile.open_edges), (1, 0));
+    assert_eq!((r.reference_pieces, r.reference_open_edges), (None, None));
     let json = serde_json::to_value(&r).unwrap();
     assert!(json.get("by_spacing").is_none(), "{json}");
     // With the points: the same samples, broken down by distance from the nearest point.
