@@ -266,7 +266,7 @@ pub struct MeshProfile {
     /// Edges one triangle alone uses (vertices at one position merged): the rims of holes and
     /// of open surfaces, 0 for a closed one. A part thinner than about 1.5 cells shows here.
     pub open_edges: usize,
-    /// Trusted first guesses projected onto the zero set.
+    /// Vertices of trusted cells projected onto the zero set.
     pub projections: usize,
     /// Newton steps those took.
     pub newton_steps: usize,

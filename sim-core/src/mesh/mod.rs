@@ -666,16 +666,16 @@ const PROJECTED_SLACK: f64 = 0.5;
 /// points vouching for it ([`GlobalField::trusted_facing_near`]): at the surface-nets first
 /// `guess` (the mean of the cell's edge crossings), or, where that is not trusted, at the
 /// guess projected onto the zero set, if the projection lands in or near the cell
-/// ([`PROJECTED_SLACK`]). Vertex placement puts the vertex at that projection. On a grid
-/// coarse for the part, the crossings' mean lies off the surface: between the sheets of a
-/// part about a cell thick, inside the bend of a tube two or three cells across, off every
-/// vouching point's plane. Judged there alone, such cells were left out: a tube three cells
-/// across had a thousand open edges, one under two cells across no triangle at all, and the
-/// armadillo at resolution 100 had 513 open edges and six pieces of two to four triangles
-/// (test `parts_two_to_three_cells_thick_mesh_whole_on_a_coarse_grid`). The projection's
-/// own trust test still keeps a spurious sheet out. `cell_lo` and `h` are the cell's first
-/// corner and edge; `supports` is a list gathered for `bounds` (outside it the field's index
-/// answers).
+/// ([`PROJECTED_SLACK`]), where vertex placement then puts the vertex (it takes a trusted
+/// projection within two cells of the guess). On a grid coarse for the part, the crossings'
+/// mean lies off the surface: between the sheets of a part about a cell thick, inside the
+/// bend of a tube two or three cells across, off every vouching point's plane. Judged there
+/// alone, such cells were left out: a tube three cells across had a thousand open edges, one
+/// under two cells across no triangle at all, and the armadillo at resolution 100 had 513
+/// open edges and six pieces of two to four triangles (test
+/// `parts_two_to_three_cells_thick_mesh_whole_on_a_coarse_grid`). The projection's own trust
+/// test still keeps a spurious sheet out. `cell_lo` and `h` are the cell's first corner and
+/// edge; `supports` is a list gathered for `bounds` (outside it the field's index answers).
 fn cell_facing(
     field: &GlobalField,
     guess: DVec3,
