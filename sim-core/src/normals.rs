@@ -152,26 +152,59 @@ pub const UNORIENTED_SHARE: f64 = 0.2;
 /// the two sides of a thin part face apart but lie off each other's planes. Zero normals
 /// (unknown) are skipped; 0 when there are no pairs.
 pub fn unoriented_share(points: &[DVec3], index: &PointIndex, normals: &[DVec3]) -> f64 {
+    share_apart(points, normals, |i| {
+        index
+            .nearest_k(points[i], SHARE_NEIGHBOURS + 1)
+            .into_iter()
+            .map(|(j, _)| j)
+            .filter(move |&j| j != i)
+    })
+}
+
+/// [`unoriented_share`] with each sampled point's nearest others read from a k-NN graph (its
+/// rows are the point, then the nearest others) instead of searched in a tree: the same pairs
+/// but where distances tie.
+pub fn unoriented_share_in(points: &[DVec3], knn: &KnnGraph, normals: &[DVec3]) -> f64 {
+    share_apart(points, normals, |i| {
+        let row = knn.neighbours(i);
+        row[1.min(row.len())..row.len().min(SHARE_NEIGHBOURS + 1)]
+            .iter()
+            .map(|&j| j as usize)
+    })
+}
+
+/// The share behind [`unoriented_share`], over each sampled point's `near` others (on all
+/// cores; integer counts, so the result does not depend on the split).
+fn share_apart<I: Iterator<Item = usize>>(
+    points: &[DVec3],
+    normals: &[DVec3],
+    near: impl Fn(usize) -> I + Sync,
+) -> f64 {
     let step = (points.len() / SHARE_SAMPLES).max(1);
-    let (mut apart, mut pairs) = (0usize, 0usize);
-    for i in (0..points.len()).step_by(step) {
-        let n = normals[i];
-        if n == DVec3::ZERO || !n.is_finite() {
-            continue;
-        }
-        for (j, _) in index.nearest_k(points[i], SHARE_NEIGHBOURS + 1) {
-            let (m, d) = (normals[j], points[j] - points[i]);
-            let len = d.length();
-            if j == i || m == DVec3::ZERO || !m.is_finite() || len == 0.0 {
-                continue;
+    let (apart, pairs) = (0..points.len().div_ceil(step))
+        .into_par_iter()
+        .map(|s| {
+            let i = s * step;
+            let n = normals[i];
+            let (mut apart, mut pairs) = (0usize, 0usize);
+            if n == DVec3::ZERO || !n.is_finite() {
+                return (0, 0);
             }
-            pairs += 1;
-            let beside = n.dot(d).abs() <= BESIDE * len * n.length();
-            if beside && n.dot(m) < 0.0 {
-                apart += 1;
+            for j in near(i) {
+                let (m, d) = (normals[j], points[j] - points[i]);
+                let len = d.length();
+                if j == i || m == DVec3::ZERO || !m.is_finite() || len == 0.0 {
+                    continue;
+                }
+                pairs += 1;
+                let beside = n.dot(d).abs() <= BESIDE * len * n.length();
+                if beside && n.dot(m) < 0.0 {
+                    apart += 1;
+                }
             }
-        }
-    }
+            (apart, pairs)
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     if pairs == 0 {
         0.0
     } else {
@@ -196,6 +229,25 @@ pub fn orient_if_unoriented(points: &[DVec3], normals: &mut [DVec3]) -> Option<f
     }
     let knn = KnnGraph::build(points, &index, ORIENT_NEIGHBOURS + 1);
     orient_consistently(points, &knn, normals);
+    Some(share)
+}
+
+/// [`orient_if_unoriented`] over a k-NN graph of the points (at least
+/// [`ORIENT_NEIGHBOURS`] + 1 per row for the same orientation), which the caller has anyway:
+/// no k-d tree of its own and no searches.
+pub fn orient_if_unoriented_in(
+    points: &[DVec3],
+    knn: &KnnGraph,
+    normals: &mut [DVec3],
+) -> Option<f64> {
+    if points.len() < 2 || points.len() != normals.len() || knn.len() != points.len() {
+        return None;
+    }
+    let share = unoriented_share_in(points, knn, normals);
+    if share <= UNORIENTED_SHARE {
+        return None;
+    }
+    orient_consistently(points, knn, normals);
     Some(share)
 }
 

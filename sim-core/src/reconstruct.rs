@@ -18,6 +18,12 @@ pub enum NormalPolicy {
     /// Keep given normals as they are; estimate (PCA + MST orientation) only missing ones.
     #[default]
     Keep,
+    /// [`NormalPolicy::Keep`], except that given normals whose signs look like noise
+    /// ([`normals::unoriented_share_in`] above [`normals::UNORIENTED_SHARE`]: some scanners
+    /// write unoriented normals, and a field fitted to them breaks up) are first made consistent
+    /// over the MST, each part's top facing `+z` ([`Reconstruction::reoriented`] says so). The
+    /// check reads the k-NN graph the fit builds anyway.
+    KeepConsistent,
     /// Keep the given normals' lines but make their signs consistent over the MST, keeping the
     /// global sign most given normals agree with (repairs a minority of flipped normals).
     Reorient,
@@ -73,6 +79,9 @@ pub struct Reconstruction {
     pub normals: Vec<DVec3>,
     /// How many normals were estimated by PCA.
     pub estimated_normals: usize,
+    /// With [`NormalPolicy::KeepConsistent`], the share of side-by-side neighbours whose given
+    /// normals faced apart when that made them consistent; `None` when it left them alone.
+    pub reoriented: Option<f64>,
 }
 
 /// Fit `points` into a [`GlobalField`].
@@ -99,6 +108,7 @@ pub fn reconstruct(
         .normals
         .take()
         .filter(|_| policy != NormalPolicy::Estimate);
+    let mut reoriented = None;
     let (normals, estimated) = match given {
         None => {
             let mut n = normals::estimate_pca(pos, &knn);
@@ -106,7 +116,10 @@ pub fn reconstruct(
             let count = n.len();
             (n, count)
         }
-        Some(given) => {
+        Some(mut given) => {
+            if policy == NormalPolicy::KeepConsistent {
+                reoriented = normals::orient_if_unoriented_in(pos, &knn, &mut given);
+            }
             let missing: Vec<bool> = given.iter().map(|n| *n == DVec3::ZERO).collect();
             let count = missing.iter().filter(|m| **m).count();
             let mut n = given.clone();
@@ -135,5 +148,6 @@ pub fn reconstruct(
         field,
         normals,
         estimated_normals: estimated,
+        reoriented,
     })
 }

@@ -439,17 +439,9 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
     let (points, own_mesh, default_ref): (PointSet, Option<TriMesh>, ReferenceSpec) = match &input {
         InputSpec::File(path) => {
             let mut loaded = read_file(path)?;
-            // `--normals estimate` still ignores these.
+            // `--normals estimate` still ignores these; with `keep`, unoriented ones are made
+            // consistent by the fit (`NormalPolicy::KeepConsistent`, on its k-NN graph).
             loaded.normals_from_winding();
-            if args.normals == NormalsArg::Keep
-                && let Some(normals) = loaded.points.normals.as_mut()
-            {
-                crate::sculpt::orient_if_unoriented(
-                    &path.display().to_string(),
-                    &loaded.points.positions,
-                    normals,
-                );
-            }
             (loaded.points, loaded.mesh, ReferenceSpec::None)
         }
         InputSpec::SampledMesh { path, n } => {
@@ -511,7 +503,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         ..FitParams::default()
     };
     let policy = match args.normals {
-        NormalsArg::Keep => NormalPolicy::Keep,
+        NormalsArg::Keep => NormalPolicy::KeepConsistent,
         NormalsArg::Reorient => NormalPolicy::Reorient,
         NormalsArg::Estimate => NormalPolicy::Estimate,
     };
@@ -531,6 +523,9 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
     let t0 = Instant::now();
     let rec = reconstruct(&points, &params, policy, &mut timer, &Bar(bar.clone()))?;
     let construct_s = t0.elapsed().as_secs_f64();
+    if let Some(share) = rec.reoriented {
+        crate::sculpt::warn_reoriented(&args.input, share);
+    }
     let peak_rss_mib = crate::bigscan::peak_rss_kib() as f64 / 1024.0;
     bar.finish_and_clear();
 

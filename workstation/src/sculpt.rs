@@ -164,12 +164,18 @@ pub(crate) fn orient_if_unoriented(
     normals: &mut [glam::DVec3],
 ) {
     if let Some(share) = sim_core::normals::orient_if_unoriented(positions, normals) {
-        tracing::warn!(
-            "{what}: the normals' signs look unoriented ({:.0} % of neighbours side by side face \
-             apart): made consistent, each part's top facing up",
-            100.0 * share
-        );
+        warn_reoriented(what, share);
     }
+}
+
+/// The warning for normals made consistent because their signs looked like noise (`share` of
+/// side-by-side neighbours faced apart).
+pub(crate) fn warn_reoriented(what: &str, share: f64) {
+    tracing::warn!(
+        "{what}: the normals' signs look unoriented ({:.0} % of neighbours side by side face \
+         apart): made consistent, each part's top facing up",
+        100.0 * share
+    );
 }
 
 pub(crate) fn load_object(

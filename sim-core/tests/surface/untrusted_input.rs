@@ -112,3 +112,52 @@ fn unoriented_normals_are_reoriented_and_oriented_ones_left_alone() {
     assert_eq!(orient_if_unoriented(&leaf.positions, &mut kept), None);
     assert_eq!(kept, given);
 }
+
+/// `reconstruct` with `KeepConsistent` makes the same check on its own k-NN graph (no tree or
+/// searches of its own): random signs come back facing out, with the same share as the tree's
+/// check; oriented normals are kept as given. `Keep` never touches them.
+#[test]
+fn keep_consistent_reorients_unoriented_normals_on_the_fits_graph() {
+    use sim_core::knn::PointIndex;
+    use sim_core::normals::{unoriented_share, unoriented_share_in};
+    use sim_core::pointset::PointSet;
+    let sphere = Shape::Sphere { radius: 0.05 }.sample(3000, 11);
+    let outward = sphere.normals.clone().unwrap();
+    let random: Vec<DVec3> = outward
+        .iter()
+        .enumerate()
+        .map(|(i, n)| if (i * 7919) % 13 < 6 { -*n } else { *n })
+        .collect();
+    let index = PointIndex::new(&sphere.positions);
+    let knn = sim_core::knn::KnnGraph::build(&sphere.positions, &index, 20);
+    let by_tree = unoriented_share(&sphere.positions, &index, &random);
+    let by_graph = unoriented_share_in(&sphere.positions, &knn, &random);
+    assert_eq!(by_tree, by_graph);
+    let scrambled = PointSet {
+        normals: Some(random.clone()),
+        ..sphere.clone()
+    };
+    let rec = fit(
+        &scrambled,
+        &FitParams::default(),
+        NormalPolicy::KeepConsistent,
+    );
+    assert_eq!(rec.reoriented, Some(by_graph));
+    for (p, n) in sphere.positions.iter().zip(&rec.normals) {
+        assert!(p.dot(*n) > 0.0, "{p} faces in after reorienting");
+    }
+    // The fit's normals are the given ones, renormalised: compare directions.
+    let same = |a: &[DVec3], b: &[DVec3]| a.iter().zip(b).all(|(a, b)| a.dot(*b) > 1.0 - 1e-9);
+    let kept = fit(&scrambled, &FitParams::default(), NormalPolicy::Keep);
+    assert_eq!(kept.reoriented, None);
+    assert!(
+        same(&kept.normals, &random),
+        "Keep changed the given normals"
+    );
+    let oriented = fit(&sphere, &FitParams::default(), NormalPolicy::KeepConsistent);
+    assert_eq!(oriented.reoriented, None);
+    assert!(
+        same(&oriented.normals, &outward),
+        "oriented normals were changed"
+    );
+}
