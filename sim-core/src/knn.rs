@@ -4,10 +4,15 @@
 //! Contract: built once (a graph may then be shrunk per point, [`KnnGraph::shrink`], before
 //! use), then immutable, `Send + Sync`; [`PointIndex::nearest`] does not allocate.
 
+use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
+
 use glam::DVec3;
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use rayon::prelude::*;
+
+use crate::spatial::MulHasher;
 
 /// A k-d tree over positions, returning indices into the original slice.
 pub struct PointIndex {
@@ -85,26 +90,81 @@ pub struct KnnGraph {
 }
 
 impl KnnGraph {
-    /// Query `index` for the `k` nearest of every point (k is capped at the point count, ≥ 1).
-    /// Runs on all cores.
+    /// The `k` nearest of every point (k is capped at the point count, ≥ 1): the point itself,
+    /// then its `k − 1` nearest others by distance. Runs on all cores.
+    ///
+    /// Points are bucketed in a uniform grid whose cells are about a typical neighbourhood
+    /// radius wide (measured with `index`); each cell gathers the points of its 3 × 3 × 3 block
+    /// once and every point in it picks its nearest from those. That answer is exact when the
+    /// farthest one picked lies nearer than the block's walls; a point where it does not (a
+    /// sparse region) asks `index`. Ties in distance go to the lower index.
     pub fn build(points: &[DVec3], index: &PointIndex, k: usize) -> Self {
         let k = k.clamp(1, points.len());
+        match CellGrid::new(points, index, k) {
+            Some(grid) => Self::from_grid(points, index, k, &grid),
+            None => Self::from_tree(points, index, k),
+        }
+    }
+
+    /// [`KnnGraph::build`] by one k-d tree search per point.
+    fn from_tree(points: &[DVec3], index: &PointIndex, k: usize) -> Self {
         let mut neighbours = vec![0u32; points.len() * k];
         let mut distances = vec![0.0; points.len() * k];
         neighbours
             .par_chunks_mut(k)
             .zip(distances.par_chunks_mut(k))
             .enumerate()
-            .for_each(|(i, (nb, ds))| {
-                let found = index.nearest_k(points[i], k);
-                // Put the point itself first even when duplicates tie with it.
-                nb[0] = i as u32;
-                ds[0] = 0.0;
-                let others = found.into_iter().filter(|&(j, _)| j != i).take(k - 1);
-                for (slot, (j, d)) in (1..).zip(others) {
-                    nb[slot] = j as u32;
-                    ds[slot] = d;
-                }
+            .for_each(|(i, (nb, ds))| tree_row(points, index, i, nb, ds));
+        Self {
+            k,
+            neighbours,
+            distances,
+            counts: Vec::new(),
+        }
+    }
+
+    /// [`KnnGraph::build`] over the cells of `grid`: rows are found in cell order (a cell's
+    /// points share its block's candidates) and then moved to point order.
+    fn from_grid(points: &[DVec3], index: &PointIndex, k: usize, grid: &CellGrid) -> Self {
+        let n = points.len();
+        let mut sorted_nb = vec![0u32; n * k];
+        let mut sorted_ds = vec![0.0; n * k];
+        const CHUNK: usize = 256;
+        sorted_nb
+            .par_chunks_mut(k * CHUNK)
+            .zip(sorted_ds.par_chunks_mut(k * CHUNK))
+            .enumerate()
+            .for_each_init(
+                || (Vec::new(), Vec::new(), Vec::new(), u64::MAX),
+                |(candidates, dist, near, cell), (chunk, (nbs, dss))| {
+                    for (o, (nb, ds)) in nbs.chunks_mut(k).zip(dss.chunks_mut(k)).enumerate() {
+                        let (key, i) = grid.order[chunk * CHUNK + o];
+                        if key != *cell {
+                            grid.gather_block(key, points, candidates);
+                            *cell = key;
+                        }
+                        if !grid_row(
+                            points, grid, key, i as usize, candidates, dist, near, nb, ds,
+                        ) {
+                            tree_row(points, index, i as usize, nb, ds);
+                        }
+                    }
+                },
+            );
+        let mut neighbours = vec![0u32; n * k];
+        let mut distances = vec![0.0; n * k];
+        let mut at = vec![0u32; n];
+        for (s, &(_, i)) in grid.order.iter().enumerate() {
+            at[i as usize] = s as u32;
+        }
+        neighbours
+            .par_chunks_mut(k)
+            .zip(distances.par_chunks_mut(k))
+            .zip(&at)
+            .for_each(|((nb, ds), &s)| {
+                let s = s as usize;
+                nb.copy_from_slice(&sorted_nb[s * k..(s + 1) * k]);
+                ds.copy_from_slice(&sorted_ds[s * k..(s + 1) * k]);
             });
         Self {
             k,
@@ -166,6 +226,186 @@ impl KnnGraph {
     }
 }
 
+/// Point `i`'s row by a k-d tree search: itself first (even where duplicates tie with it),
+/// then its nearest others.
+fn tree_row(points: &[DVec3], index: &PointIndex, i: usize, nb: &mut [u32], ds: &mut [f64]) {
+    let k = nb.len();
+    let found = index.nearest_k(points[i], k);
+    nb[0] = i as u32;
+    ds[0] = 0.0;
+    let others = found.into_iter().filter(|&(j, _)| j != i).take(k - 1);
+    for (slot, (j, d)) in (1..).zip(others) {
+        nb[slot] = j as u32;
+        ds[slot] = d;
+    }
+}
+
+/// Point `i`'s row from `candidates` (the points of the 3 × 3 × 3 block of cells around its
+/// cell `key`), or `false` when they cannot prove it: fewer than `k − 1` others, or the
+/// farthest of the `k − 1` nearest not nearer than the block's nearest wall (a point beyond
+/// it might be nearer).
+#[allow(clippy::too_many_arguments)]
+fn grid_row(
+    points: &[DVec3],
+    grid: &CellGrid,
+    key: u64,
+    i: usize,
+    candidates: &[(DVec3, u32)],
+    dist: &mut Vec<f64>,
+    near: &mut Vec<(f64, u32)>,
+    nb: &mut [u32],
+    ds: &mut [f64],
+) -> bool {
+    let k = nb.len();
+    let p = points[i];
+    let want = k - 1;
+    if want == 0 {
+        nb[0] = i as u32;
+        ds[0] = 0.0;
+        return true;
+    }
+    // Squared distances to the others, the `want`-th smallest of them (a selection over
+    // plain floats), then the ones up to it sorted by (distance, index).
+    dist.clear();
+    dist.extend(
+        candidates
+            .iter()
+            .filter(|c| c.1 as usize != i)
+            .map(|&(q, _)| (q - p).length_squared()),
+    );
+    if dist.len() < want {
+        return false;
+    }
+    let (_, &mut cut, _) = dist.select_nth_unstable_by(want - 1, f64::total_cmp);
+    near.clear();
+    near.extend(
+        candidates
+            .iter()
+            .filter(|c| c.1 as usize != i)
+            .map(|&(q, j)| ((q - p).length_squared(), j))
+            .filter(|e| e.0 <= cut),
+    );
+    near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    near.truncate(want);
+    let farthest = near[want - 1].0;
+    let wall = grid.wall_distance(key, p);
+    if !(farthest < wall * wall) {
+        return false;
+    }
+    nb[0] = i as u32;
+    ds[0] = 0.0;
+    for (slot, &(d2, j)) in (1..).zip(near.iter()) {
+        nb[slot] = j;
+        ds[slot] = d2.sqrt();
+    }
+    true
+}
+
+/// Points bucketed in a uniform grid for [`KnnGraph::build`].
+struct CellGrid {
+    origin: DVec3,
+    cell: f64,
+    /// (cell key, point) sorted by key, then point.
+    order: Vec<(u64, u32)>,
+    /// Key → range of `order`.
+    ranges: HashMap<u64, (u32, u32), BuildHasherDefault<MulHasher>>,
+}
+
+/// Bits per axis of a cell key.
+const KEY_BITS: u32 = 21;
+/// Points sampled (evenly by index) to size the cells.
+const CELL_SAMPLES: usize = 64;
+/// Fewer points than this are searched in the tree alone.
+const GRID_FROM: usize = 512;
+
+impl CellGrid {
+    /// Cells as wide as the 75th percentile of sampled points' `k`-neighbourhood radii (most
+    /// points then find all their neighbours in their 3 × 3 × 3 block); `None` where that
+    /// cannot work: few points, a degenerate radius or a box too many cells wide.
+    fn new(points: &[DVec3], index: &PointIndex, k: usize) -> Option<Self> {
+        if points.len() < GRID_FROM || k < 2 {
+            return None;
+        }
+        let step = (points.len() / CELL_SAMPLES).max(1);
+        let mut radii: Vec<f64> = (0..points.len())
+            .step_by(step)
+            .map(|i| index.nearest_k(points[i], k).last().map_or(0.0, |l| l.1))
+            .collect();
+        radii.sort_by(f64::total_cmp);
+        let cell = radii[radii.len() * 3 / 4];
+        let (lo, hi) = points.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let cells = ((hi - lo) / cell).max_element();
+        if !(cell > 0.0 && cell.is_finite() && cells < (1u64 << KEY_BITS) as f64 - 4.0) {
+            return None;
+        }
+        // One cell of margin below, so the block around any cell has non-negative coordinates.
+        let origin = lo - DVec3::splat(cell);
+        let mut order: Vec<(u64, u32)> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let c = ((*p - origin) / cell).floor();
+                (pack([c.x as u64, c.y as u64, c.z as u64]), i as u32)
+            })
+            .collect();
+        order.par_sort_unstable();
+        let mut ranges = HashMap::default();
+        let mut start = 0;
+        for s in 1..=order.len() {
+            if s == order.len() || order[s].0 != order[start].0 {
+                ranges.insert(order[start].0, (start as u32, s as u32));
+                start = s;
+            }
+        }
+        Some(Self {
+            origin,
+            cell,
+            order,
+            ranges,
+        })
+    }
+
+    /// The points of the 3 × 3 × 3 block of cells around cell `key`, into `out`.
+    fn gather_block(&self, key: u64, points: &[DVec3], out: &mut Vec<(DVec3, u32)>) {
+        out.clear();
+        let c = unpack(key);
+        for z in c[2] - 1..=c[2] + 1 {
+            for y in c[1] - 1..=c[1] + 1 {
+                for x in c[0] - 1..=c[0] + 1 {
+                    if let Some(&(s, e)) = self.ranges.get(&pack([x, y, z])) {
+                        out.extend(
+                            self.order[s as usize..e as usize]
+                                .iter()
+                                .map(|&(_, j)| (points[j as usize], j)),
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// How far `p` (in cell `key`) lies from the nearest wall of the block around that cell.
+    fn wall_distance(&self, key: u64, p: DVec3) -> f64 {
+        let c = unpack(key);
+        let lo = self.origin
+            + DVec3::new(c[0] as f64 - 1.0, c[1] as f64 - 1.0, c[2] as f64 - 1.0) * self.cell;
+        let hi = lo + DVec3::splat(3.0 * self.cell);
+        (p - lo).min(hi - p).min_element()
+    }
+}
+
+fn pack(c: [u64; 3]) -> u64 {
+    (c[2] << (2 * KEY_BITS)) | (c[1] << KEY_BITS) | c[0]
+}
+
+fn unpack(key: u64) -> [u64; 3] {
+    let mask = (1u64 << KEY_BITS) - 1;
+    [key & mask, (key >> KEY_BITS) & mask, key >> (2 * KEY_BITS)]
+}
+
 #[cfg(test)]
 mod tests {
     use rand::{Rng, SeedableRng};
@@ -210,6 +450,40 @@ mod tests {
                         "point {i}, k {k}: {got:?} vs {want:?}"
                     );
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn grid_rows_match_the_trees_on_uneven_density() {
+        // A dense patch, a sparse sheet far off and points scattered in the box: the grid's
+        // rows (with the tree's where a block cannot prove them) are the tree's rows exactly.
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let mut pts: Vec<DVec3> = (0..6000)
+            .map(|_| DVec3::new(rng.random_range(0.0..1.0), rng.random_range(0.0..1.0), 0.0))
+            .collect();
+        pts.extend((0..400).map(|_| {
+            DVec3::new(
+                rng.random_range(0.0..30.0),
+                rng.random_range(0.0..30.0),
+                5.0,
+            )
+        }));
+        pts.extend((0..100).map(|_| {
+            DVec3::new(
+                rng.random_range(-10.0..40.0),
+                rng.random_range(-10.0..40.0),
+                rng.random_range(-10.0..10.0),
+            )
+        }));
+        let index = PointIndex::new(&pts);
+        for k in [2, 8, 20] {
+            let grid = CellGrid::new(&pts, &index, k).expect("a grid for 6,500 points");
+            let by_grid = KnnGraph::from_grid(&pts, &index, k, &grid);
+            let by_tree = KnnGraph::from_tree(&pts, &index, k);
+            assert_eq!(by_grid.neighbours, by_tree.neighbours, "k {k}");
+            for (g, t) in by_grid.distances.iter().zip(&by_tree.distances) {
+                assert!((g - t).abs() <= 1e-12 * t, "k {k}: {g} vs {t}");
             }
         }
     }
