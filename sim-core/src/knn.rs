@@ -6,6 +6,7 @@
 
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
+use std::sync::Arc;
 
 use glam::DVec3;
 use kiddo::SquaredEuclidean;
@@ -82,8 +83,8 @@ impl PointIndex {
 #[derive(Debug, Clone, PartialEq)]
 pub struct KnnGraph {
     k: usize,
-    neighbours: Vec<u32>,
-    distances: Vec<f64>,
+    /// Each point's `k` rows, shared by clones (a shrunk copy only adds `counts`).
+    rows: Arc<Rows>,
     /// How many of each point's `k` listed neighbours are in use (empty: all of them); see
     /// [`KnnGraph::shrink`].
     counts: Vec<u32>,
@@ -117,8 +118,10 @@ impl KnnGraph {
             .for_each(|(i, (nb, ds))| tree_row(points, index, i, nb, ds));
         Self {
             k,
-            neighbours,
-            distances,
+            rows: Arc::new(Rows {
+                neighbours,
+                distances,
+            }),
             counts: Vec::new(),
         }
     }
@@ -168,8 +171,10 @@ impl KnnGraph {
             });
         Self {
             k,
-            neighbours,
-            distances,
+            rows: Arc::new(Rows {
+                neighbours,
+                distances,
+            }),
             counts: Vec::new(),
         }
     }
@@ -183,7 +188,11 @@ impl KnnGraph {
             .into_par_iter()
             .map(|i| {
                 let range = i * k..(i + 1) * k;
-                let c = count(i, &self.neighbours[range.clone()], &self.distances[range]);
+                let c = count(
+                    i,
+                    &self.rows.neighbours[range.clone()],
+                    &self.rows.distances[range],
+                );
                 c.clamp(1, k) as u32
             })
             .collect();
@@ -197,22 +206,22 @@ impl KnnGraph {
 
     /// Number of points.
     pub fn len(&self) -> usize {
-        self.neighbours.len() / self.k
+        self.rows.neighbours.len() / self.k
     }
 
     /// `true` for an empty graph.
     pub fn is_empty(&self) -> bool {
-        self.neighbours.is_empty()
+        self.rows.neighbours.is_empty()
     }
 
     /// Neighbour indices of point `i`, itself first, then by increasing distance.
     pub fn neighbours(&self, i: usize) -> &[u32] {
-        &self.neighbours[self.range(i)]
+        &self.rows.neighbours[self.range(i)]
     }
 
     /// Distances matching [`KnnGraph::neighbours`].
     pub fn distances(&self, i: usize) -> &[f64] {
-        &self.distances[self.range(i)]
+        &self.rows.distances[self.range(i)]
     }
 
     fn range(&self, i: usize) -> std::ops::Range<usize> {
@@ -299,6 +308,13 @@ fn grid_row(
         ds[slot] = d2.sqrt();
     }
     true
+}
+
+/// A graph's rows: `k` neighbour ids and distances per point.
+#[derive(Debug, PartialEq)]
+struct Rows {
+    neighbours: Vec<u32>,
+    distances: Vec<f64>,
 }
 
 /// Points bucketed in a uniform grid for [`KnnGraph::build`].
@@ -481,8 +497,8 @@ mod tests {
             let grid = CellGrid::new(&pts, &index, k).expect("a grid for 6,500 points");
             let by_grid = KnnGraph::from_grid(&pts, &index, k, &grid);
             let by_tree = KnnGraph::from_tree(&pts, &index, k);
-            assert_eq!(by_grid.neighbours, by_tree.neighbours, "k {k}");
-            for (g, t) in by_grid.distances.iter().zip(&by_tree.distances) {
+            assert_eq!(by_grid.rows.neighbours, by_tree.rows.neighbours, "k {k}");
+            for (g, t) in by_grid.rows.distances.iter().zip(&by_tree.rows.distances) {
                 assert!((g - t).abs() <= 1e-12 * t, "k {k}: {g} vs {t}");
             }
         }

@@ -563,22 +563,28 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         let (mesh, stats) = extract_zero_set_with(&rec.field, box_, padded as usize, &options);
         mesh_s = Some(t2.elapsed().as_secs_f64());
         mesh_evaluations = Some([stats.evaluations, stats.box_nodes]);
-        let (_, sizes) = mesh.components();
+        // The census (both passes over every edge) runs beside the file's writing.
+        let (written, ((_, sizes), open_edges)) = rayon::join(
+            || {
+                args.mesh
+                    .as_ref()
+                    .map_or(Ok(()), |out| write_mesh(out, &mesh))
+            },
+            || rayon::join(|| mesh.components(), || mesh.open_edges()),
+        );
+        written?;
         mesh_profile = Some(MeshProfile {
             timings: stats.timings,
             cells_visited: stats.cells_visited,
             components: sizes.len(),
             component_triangles: sizes.iter().copied().take(20).collect(),
-            open_edges: mesh.open_edges(),
+            open_edges,
             projections: stats.projections,
             newton_steps: stats.newton_steps,
             inverted: stats.inverted,
             sharpened: stats.sharpened,
         });
         mesh_triangles = Some(mesh.triangles.len());
-        if let Some(out) = &args.mesh {
-            write_mesh(out, &mesh)?;
-        }
         if let Some((_, r)) = reference.as_ref().filter(|_| want_surface) {
             let sampled = SampledError::new(
                 &mesh,

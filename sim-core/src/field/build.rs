@@ -201,24 +201,17 @@ impl GlobalField {
         sup_sorted.sort_by(f64::total_cmp);
         let scale = sup_sorted[sup_sorted.len() / 2];
         let grid = SupportGrid::new(&centers, &support, 2.0 * scale);
-        let votes = super::blend::solid_votes(&frames, &support, &grid, params.normal_agreement);
-        let witnesses = (params.centre_spacing > 0.0).then(|| {
-            let support: Vec<f64> = (0..points.len())
-                .map(|i| {
-                    let r = if radii[i] > 0.0 { radii[i] } else { typical };
-                    if outlier[i] {
-                        0.0
-                    } else {
-                        params.support * r * (1.0 + params.offset)
-                    }
-                })
-                .collect();
-            Witnesses {
-                grid: SupportGrid::new(points, &support, 2.0 * scale),
-                normals: normals.to_vec(),
-                support,
-            }
-        });
+        // The votes (parallel), the witnesses' grid and the nearest-point index (each serial)
+        // side by side.
+        let ((votes, witnesses), nearest) = rayon::join(
+            || {
+                rayon::join(
+                    || super::blend::solid_votes(&frames, &support, &grid, params.normal_agreement),
+                    || witnesses(points, normals, &radii, &outlier, typical, scale, params),
+                )
+            },
+            || PointIndex::new(&inlier_points),
+        );
         let refit = RefitOperator::new(params.size, params.size)
             .map_err(|_| FieldError::Param("size must be in 3..=6"))?;
         Ok(Self {
@@ -232,7 +225,7 @@ impl GlobalField {
                     .map(|&i| normals[i as usize])
                     .chain(sites.iter().map(|g| g.normal))
                     .collect(),
-                nearest: PointIndex::new(&inlier_points),
+                nearest,
                 nearest_ids: inliers,
                 slot,
                 orphans: Vec::new(),
@@ -249,6 +242,37 @@ impl GlobalField {
             }),
         })
     }
+}
+
+/// Every inlier point as a trust witness with its support radius (outliers get 0), for a
+/// thinned field ([`FitParams::centre_spacing`] > 0); `None` for a field at every point, whose
+/// own points are the witnesses.
+fn witnesses(
+    points: &[DVec3],
+    normals: &[DVec3],
+    radii: &[f64],
+    outlier: &[bool],
+    typical: f64,
+    scale: f64,
+    params: &FitParams,
+) -> Option<Witnesses> {
+    (params.centre_spacing > 0.0).then(|| {
+        let support: Vec<f64> = (0..points.len())
+            .map(|i| {
+                let r = if radii[i] > 0.0 { radii[i] } else { typical };
+                if outlier[i] {
+                    0.0
+                } else {
+                    params.support * r * (1.0 + params.offset)
+                }
+            })
+            .collect();
+        Witnesses {
+            grid: SupportGrid::new(points, &support, 2.0 * scale),
+            normals: normals.to_vec(),
+            support,
+        }
+    })
 }
 
 /// Least cosine between a point's normal and a neighbour's for [`even_count`] to shrink its
