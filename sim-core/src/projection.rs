@@ -77,7 +77,21 @@ pub fn project_to_zero_set_near(
     x: DVec3,
     opt: &ProjectOptions,
     supports: &SupportList,
+    bounds: (DVec3, DVec3),
+) -> Projection {
+    project_to_zero_set_near_from(field, x, opt, supports, bounds, false)
+}
+
+/// [`project_to_zero_set_near`] from a start `x` where the caller has already found the field
+/// trusted (`trusted_at_x`, by the same test): a projection that ends where it started (no
+/// step was needed) does not test it again. The same result, bit for bit.
+pub fn project_to_zero_set_near_from(
+    field: &GlobalField,
+    x: DVec3,
+    opt: &ProjectOptions,
+    supports: &SupportList,
     (lo, hi): (DVec3, DVec3),
+    trusted_at_x: bool,
 ) -> Projection {
     let inside = |p: DVec3| p.cmpge(lo).all() && p.cmple(hi).all();
     project_over(
@@ -92,7 +106,9 @@ pub fn project_to_zero_set_near(
             }
         },
         |p| {
-            if inside(p) {
+            if trusted_at_x && p == x {
+                true
+            } else if inside(p) {
                 field.is_trusted_near(p, supports)
             } else {
                 field.is_trusted(p)

@@ -24,6 +24,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::Verdict;
 use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
 use crate::sparse::{
@@ -40,7 +41,7 @@ pub(super) struct Followed {
     /// per block: local cell index (`(k · BLOCK + j) · BLOCK + i`, ascending) and the vouching
     /// points' facing there ([`GlobalField::trusted_facing_near`]). Meshing places vertices
     /// only there, their trust already tested.
-    pub crossed: HashMap<BlockKey, Vec<(u32, DVec3)>>,
+    pub crossed: HashMap<BlockKey, Vec<(u32, Verdict)>>,
     /// Field evaluations made (one per node).
     pub evaluations: usize,
     /// Processor time of those evaluations, ns.
@@ -53,8 +54,8 @@ pub(super) struct Followed {
 
 type Node = [usize; 3];
 
-/// A crossed cell the walk keeps: its corner values and its points' facing.
-type Kept = ([f64; 8], DVec3);
+/// A crossed cell the walk keeps: its corner values and its trust verdict.
+type Kept = ([f64; 8], Verdict);
 
 /// Nodes or cells per timed chunk of a parallel step (the phase timers read the clock once
 /// per chunk, not once per item).
@@ -98,7 +99,7 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
     let mut lists: HashMap<u64, SupportList, Fast> = HashMap::default();
     let mut visited: HashSet<u64, Fast> = HashSet::default();
     let (mut eval_ns, mut trust_ns, mut evaluations) = (0u64, 0u64, 0usize);
-    let mut crossed_cells: Vec<(Node, DVec3)> = Vec::new();
+    let mut crossed_cells: Vec<(Node, Verdict)> = Vec::new();
 
     // Round 0: the cells holding the points, each with the points in it (for the retry).
     let mut seeds: HashMap<u64, DVec3, Fast> = HashMap::default();
@@ -207,9 +208,9 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
                             &lists[&block_id(b)],
                             block_box(spec, b),
                         );
-                        let kept =
-                            facing.filter(|&n| field.faces_its_points(corner_gradient(&f), n));
-                        kept.map(|n| (f, n))
+                        let kept = facing
+                            .filter(|v| field.faces_its_points(corner_gradient(&f), v.facing));
+                        kept.map(|v| (f, v))
                     })
                     .collect();
                 (kept, t.elapsed().as_nanos() as u64)
@@ -268,7 +269,7 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
         frontier = next;
     }
 
-    let mut crossed: HashMap<BlockKey, Vec<(u32, DVec3)>> = HashMap::new();
+    let mut crossed: HashMap<BlockKey, Vec<(u32, Verdict)>> = HashMap::new();
     for (c, facing) in crossed_cells {
         let b = c.map(|v| v / BLOCK);
         let l = c.map(|v| v % BLOCK);

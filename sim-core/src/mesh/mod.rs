@@ -30,7 +30,7 @@ use rayon::prelude::*;
 
 use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
-use crate::projection::{ProjectOptions, project_to_zero_set_near};
+use crate::projection::{ProjectOptions, project_to_zero_set_near, project_to_zero_set_near_from};
 use crate::sparse::{
     BLOCK, BlockKey, all_blocks, block_box, block_dims, block_index, block_nodes, gather_block,
     sample_block,
@@ -360,7 +360,7 @@ fn extract_blocks(
     spec: &GridSpec,
     blocks: &[BlockKey],
     given: Option<&HashMap<BlockKey, Vec<f64>>>,
-    crossed: Option<&HashMap<BlockKey, Vec<(u32, DVec3)>>>,
+    crossed: Option<&HashMap<BlockKey, Vec<(u32, Verdict)>>>,
     options: &MeshOptions,
 ) -> (TriMesh, MeshStats) {
     let started = Instant::now();
@@ -400,7 +400,7 @@ fn extract_blocks(
                 let mut inverted = 0;
                 let mut sharpened = Vec::new();
                 let creases = options.creases;
-                let mut place = |i: usize, j: usize, k: usize, known_facing: Option<DVec3>| {
+                let mut place = |i: usize, j: usize, k: usize, known: Option<Verdict>| {
                     let mut corner = [0.0; 8];
                     for (c, v) in corner.iter_mut().enumerate() {
                         *v = at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
@@ -436,17 +436,21 @@ fn extract_blocks(
                         ready[slot] = true;
                     }
                     let near_cell = &*near_cell;
-                    let facing = known_facing
+                    let verdict = known
                         .or_else(|| cell_facing(field, guess, (cell_lo, h), near_cell, reach))
-                        .filter(|&n| field.faces_its_points(follow::corner_gradient(&corner), n));
+                        .filter(|v| {
+                            field.faces_its_points(follow::corner_gradient(&corner), v.facing)
+                        });
                     let tb = Instant::now();
                     trust_ns += nanos(tb - ta);
-                    let Some(facing) = facing else {
+                    let Some(Verdict { facing, at_guess }) = verdict else {
                         return;
                     };
                     let local = ((k * BLOCK + j) * BLOCK + i) as u32;
                     let projected = (!options.unprojected).then(|| {
-                        let pr = project_to_zero_set_near(field, guess, &opts, near_cell, reach);
+                        let pr = project_to_zero_set_near_from(
+                            field, guess, &opts, near_cell, reach, at_guess,
+                        );
                         project_ns += nanos(tb.elapsed());
                         projections += 1;
                         newton_steps += pr.iterations as usize;
@@ -481,10 +485,10 @@ fn extract_blocks(
                 match crossed {
                     // The walk's cells, in the scan's order, their trust already tested.
                     Some(crossed) => {
-                        for &(local, facing) in crossed.get(&key).map_or(&[][..], Vec::as_slice) {
+                        for &(local, verdict) in crossed.get(&key).map_or(&[][..], Vec::as_slice) {
                             let l = local as usize;
                             let (i, j, k) = (l % BLOCK, (l / BLOCK) % BLOCK, l / (BLOCK * BLOCK));
-                            place(i, j, k, Some(facing));
+                            place(i, j, k, Some(verdict));
                         }
                     }
                     None => {
@@ -690,7 +694,7 @@ fn cell_facing(
     (cell_lo, h): (DVec3, f64),
     supports: &SupportList,
     bounds: (DVec3, DVec3),
-) -> Option<DVec3> {
+) -> Option<Verdict> {
     let inside = |p: DVec3| p.cmpge(bounds.0).all() && p.cmple(bounds.1).all();
     let facing_at = |p: DVec3| {
         if inside(p) {
@@ -699,7 +703,13 @@ fn cell_facing(
             field.trusted_facing(p)
         }
     };
-    facing_at(guess).or_else(|| {
+    if let Some(facing) = facing_at(guess) {
+        return Some(Verdict {
+            facing,
+            at_guess: true,
+        });
+    }
+    {
         let opts = ProjectOptions {
             tolerance: VERTEX_TOLERANCE,
             ..ProjectOptions::default()
@@ -711,7 +721,20 @@ fn cell_facing(
         (pr.converged && pr.trusted && near_cell)
             .then(|| facing_at(pr.point))
             .flatten()
-    })
+            .map(|facing| Verdict {
+                facing,
+                at_guess: false,
+            })
+    }
+}
+
+/// A crossed cell's trust verdict ([`cell_facing`]): the facing of the points vouching for it,
+/// and whether the field is trusted at the cell's first guess itself (so a vertex that stays
+/// there needs no second test).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Verdict {
+    pub facing: DVec3,
+    pub at_guess: bool,
 }
 
 const CUBE_EDGES: [(usize, usize); 12] = [
