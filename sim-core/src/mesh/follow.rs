@@ -18,19 +18,17 @@
 //! blend's own bits, [`GlobalField::value_near`]).
 
 use std::collections::{HashMap, HashSet};
-use std::hash::BuildHasherDefault;
 use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::Verdict;
+use super::{Fast, Verdict};
 use crate::field::{GlobalField, SupportList};
 use crate::grid::GridSpec;
 use crate::sparse::{
     BLOCK, BlockKey, block_box, block_dims, block_index, block_nodes, gather_block,
 };
-use crate::spatial::MulHasher;
 
 /// What [`follow`] found.
 pub(super) struct Followed {
@@ -61,8 +59,6 @@ type Kept = ([f64; 8], Verdict);
 /// per chunk, not once per item).
 const TIMED_CHUNK: usize = 256;
 
-/// Hash maps keyed by grid coordinates packed into one integer (a multiplicative hash).
-type Fast = BuildHasherDefault<MulHasher>;
 
 /// Walk the trusted zero set of `field` on `spec` from the points' cells.
 pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
@@ -217,55 +213,60 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
             })
             .collect();
         trust_ns += crossed.iter().map(|c| c.1).sum::<u64>();
-        let crossed = crossed.iter().flat_map(|c| &c.0);
+        let crossed: Vec<Option<Kept>> = crossed.into_iter().flat_map(|c| c.0).collect();
 
-        // 3. Step across every face with a sign change among its corners.
-        let mut next = Vec::new();
-        for (&c, f) in frontier.iter().zip(crossed) {
-            let Some((f, facing)) = f else {
-                if retry_seeds && let Some(&p) = seeds.get(&key(c)) {
-                    // A point whose cell the surface misses: try where it projects.
-                    let pr = field.project_to_zero_set(p);
-                    if pr.converged
-                        && let Some(c2) = cell_of(pr.point)
-                        && visited.insert(key(c2))
-                    {
-                        next.push(c2);
-                    }
-                }
-                continue;
-            };
-            crossed_cells.push((c, *facing));
-            for axis in 0..3 {
-                for side in 0..2 {
-                    let face = (0..8).filter(|k| (k >> axis) & 1 == side);
+        // 3. Step across every face with a sign change among its corners (in parallel; the
+        //    cells not yet visited, each once, form the next frontier).
+        let mut steps: Vec<Node> = frontier
+            .par_iter()
+            .zip(&crossed)
+            .flat_map_iter(|(&c, kept)| {
+                let f = kept.as_ref().map(|k| k.0);
+                (0..6).filter_map(move |face| {
+                    let f = f?;
+                    let (axis, side) = (face / 2, face % 2);
                     let (mut neg, mut pos) = (false, false);
-                    for k in face {
+                    for k in (0..8).filter(|k| (k >> axis) & 1 == side) {
                         (neg, pos) = (neg || f[k] < 0.0, pos || f[k] >= 0.0);
                     }
                     if !(neg && pos) {
-                        continue;
+                        return None;
                     }
                     let mut n = c;
                     if side == 0 {
-                        let Some(v) = n[axis].checked_sub(1) else {
-                            continue;
-                        };
-                        n[axis] = v;
+                        n[axis] = n[axis].checked_sub(1)?;
                     } else {
                         n[axis] += 1;
                         if n[axis] + 1 >= dims[axis] {
-                            continue;
+                            return None;
                         }
                     }
-                    if visited.insert(key(n)) {
-                        next.push(n);
-                    }
-                }
-            }
+                    Some(n)
+                })
+            })
+            .collect();
+        if retry_seeds {
+            // A point whose cell the surface misses: try where it projects.
+            steps.par_extend(frontier.par_iter().zip(&crossed).filter_map(|(&c, kept)| {
+                let &p = seeds.get(&key(c)).filter(|_| kept.is_none())?;
+                let pr = field.project_to_zero_set(p);
+                pr.converged.then(|| cell_of(pr.point)).flatten()
+            }));
         }
+        crossed_cells.extend(
+            frontier
+                .iter()
+                .zip(&crossed)
+                .filter_map(|(&c, kept)| kept.as_ref().map(|k| (c, k.1))),
+        );
+        steps.par_sort_unstable();
+        steps.dedup();
+        let next: Vec<Node> = steps
+            .into_par_iter()
+            .filter(|&n| !visited.contains(&key(n)))
+            .collect();
+        visited.extend(next.iter().map(|&n| key(n)));
         retry_seeds = false;
-        next.sort_unstable();
         frontier = next;
     }
 

@@ -23,12 +23,14 @@ mod features;
 mod follow;
 
 use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
 use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::field::{GlobalField, SupportList};
+use crate::spatial::MulHasher;
 use crate::grid::GridSpec;
 use crate::projection::{ProjectOptions, project_to_zero_set_near, project_to_zero_set_near_from};
 use crate::sparse::{
@@ -540,31 +542,57 @@ fn extract_blocks(
     (t.gather_s, t.sample_s, t.cells_s, t.trust_s, t.project_s) =
         (phase_s(0), phase_s(1), phase_s(2), phase_s(3), phase_s(4));
 
-    let mut mesh = TriMesh::default();
-    let bdims = block_dims(spec);
-    let block_key = |b: BlockKey| block_index(bdims, b);
-    let mut slot: HashMap<usize, usize> = HashMap::with_capacity(evaluated.len());
-    // Vertex ids per block and local cell (u32::MAX: no vertex).
-    let mut ids: Vec<Vec<u32>> = Vec::with_capacity(evaluated.len());
-    // Sharpened vertices: id, and where they were before with their normal.
-    let mut sharpened = Vec::new();
-    for (s, b) in evaluated.iter().enumerate() {
-        slot.insert(block_key(b.key), s);
-        let mut cell_ids = vec![u32::MAX; BLOCK * BLOCK * BLOCK];
-        for &(local, p, gradient) in &b.vertices {
-            cell_ids[local as usize] = mesh.vertices.len() as u32;
-            mesh.vertices.push(p);
-            mesh.normals
-                .push(gradient.try_normalize().unwrap_or(DVec3::Z));
-        }
-        for &(local, p, gradient) in &b.sharpened {
-            if cell_ids[local as usize] != u32::MAX {
-                let n = gradient.try_normalize().unwrap_or(DVec3::Z);
-                sharpened.push((cell_ids[local as usize], p, n));
-            }
-        }
-        ids.push(cell_ids);
+    // Vertex ids run block by block in the blocks' order: each block's first id is the count
+    // before it, so the blocks number their vertices and cells in parallel, and then emit the
+    // quads of the edges they own in parallel; both are concatenated in block order (the same
+    // mesh as one pass would make).
+    let mut first_id = Vec::with_capacity(evaluated.len() + 1);
+    first_id.push(0u32);
+    for b in &evaluated {
+        first_id.push(first_id[first_id.len() - 1] + b.vertices.len() as u32);
     }
+    let mut mesh = TriMesh {
+        vertices: evaluated
+            .iter()
+            .flat_map(|b| b.vertices.iter().map(|v| v.1))
+            .collect(),
+        normals: evaluated
+            .iter()
+            .flat_map(|b| b.vertices.iter())
+            .map(|v| v.2.try_normalize().unwrap_or(DVec3::Z))
+            .collect(),
+        ..TriMesh::default()
+    };
+    // Vertex ids per block and local cell (u32::MAX: no vertex).
+    let ids: Vec<Vec<u32>> = evaluated
+        .par_iter()
+        .zip(&first_id)
+        .map(|(b, &first)| {
+            let mut cell_ids = vec![u32::MAX; BLOCK * BLOCK * BLOCK];
+            for (id, &(local, _, _)) in (first..).zip(&b.vertices) {
+                cell_ids[local as usize] = id;
+            }
+            cell_ids
+        })
+        .collect();
+    // Sharpened vertices: id, and where they were before with their normal.
+    let sharpened: Vec<(u32, DVec3, DVec3)> = evaluated
+        .iter()
+        .zip(&ids)
+        .flat_map(|(b, cell_ids)| {
+            b.sharpened.iter().filter_map(|&(local, p, gradient)| {
+                let id = cell_ids[local as usize];
+                (id != u32::MAX).then(|| (id, p, gradient.try_normalize().unwrap_or(DVec3::Z)))
+            })
+        })
+        .collect();
+    let bdims = block_dims(spec);
+    let block_key = |b: BlockKey| block_index(bdims, b) as u64;
+    let slot: HashMap<u64, usize, Fast> = evaluated
+        .iter()
+        .enumerate()
+        .map(|(s, b)| (block_key(b.key), s))
+        .collect();
     let [cx, cy, cz] = spec.dims.map(|n| n - 1);
     let cell = |i: usize, j: usize, k: usize| -> u32 {
         let b = [i / BLOCK, j / BLOCK, k / BLOCK];
@@ -573,63 +601,69 @@ fn extract_blocks(
             None => u32::MAX,
         }
     };
-    for b in &evaluated {
-        let (first, count) = block_nodes(spec, b.key);
-        let at = |i: usize, j: usize, k: usize| b.values[(k * count[1] + j) * count[0] + i];
-        // The block owns the edges starting at its nodes 0..BLOCK on each axis.
-        for lk in 0..count[2].min(BLOCK) {
-            for lj in 0..count[1].min(BLOCK) {
-                for li in 0..count[0].min(BLOCK) {
-                    let (i, j, k) = (first[0] + li, first[1] + lj, first[2] + lk);
-                    let f0 = at(li, lj, lk);
-                    // Edges along +x, +y, +z from this node, with the four cells around each,
-                    // listed counter-clockwise about the edge direction.
-                    for axis in 0..3 {
-                        let (f1, quad) = match axis {
-                            0 if li + 1 < count[0] && j > 0 && k > 0 => (
-                                at(li + 1, lj, lk),
-                                [(i, j - 1, k - 1), (i, j, k - 1), (i, j, k), (i, j - 1, k)],
-                            ),
-                            1 if lj + 1 < count[1] && i > 0 && k > 0 => (
-                                at(li, lj + 1, lk),
-                                [(i - 1, j, k - 1), (i - 1, j, k), (i, j, k), (i, j, k - 1)],
-                            ),
-                            2 if lk + 1 < count[2] && i > 0 && j > 0 => (
-                                at(li, lj, lk + 1),
-                                [(i - 1, j - 1, k), (i, j - 1, k), (i, j, k), (i - 1, j, k)],
-                            ),
-                            _ => continue,
-                        };
-                        if f0.is_nan() || f1.is_nan() || (f0 < 0.0) == (f1 < 0.0) {
-                            continue;
+    let quads: Vec<Vec<[u32; 3]>> = evaluated
+        .par_iter()
+        .map(|b| {
+            let mut triangles = Vec::new();
+            let (first, count) = block_nodes(spec, b.key);
+            let at = |i: usize, j: usize, k: usize| b.values[(k * count[1] + j) * count[0] + i];
+            // The block owns the edges starting at its nodes 0..BLOCK on each axis.
+            for lk in 0..count[2].min(BLOCK) {
+                for lj in 0..count[1].min(BLOCK) {
+                    for li in 0..count[0].min(BLOCK) {
+                        let (i, j, k) = (first[0] + li, first[1] + lj, first[2] + lk);
+                        let f0 = at(li, lj, lk);
+                        // Edges along +x, +y, +z from this node, with the four cells around
+                        // each, listed counter-clockwise about the edge direction.
+                        for axis in 0..3 {
+                            let (f1, quad) = match axis {
+                                0 if li + 1 < count[0] && j > 0 && k > 0 => (
+                                    at(li + 1, lj, lk),
+                                    [(i, j - 1, k - 1), (i, j, k - 1), (i, j, k), (i, j - 1, k)],
+                                ),
+                                1 if lj + 1 < count[1] && i > 0 && k > 0 => (
+                                    at(li, lj + 1, lk),
+                                    [(i - 1, j, k - 1), (i - 1, j, k), (i, j, k), (i, j, k - 1)],
+                                ),
+                                2 if lk + 1 < count[2] && i > 0 && j > 0 => (
+                                    at(li, lj, lk + 1),
+                                    [(i - 1, j - 1, k), (i, j - 1, k), (i, j, k), (i - 1, j, k)],
+                                ),
+                                _ => continue,
+                            };
+                            if f0.is_nan() || f1.is_nan() || (f0 < 0.0) == (f1 < 0.0) {
+                                continue;
+                            }
+                            if quad.iter().any(|&(a, b, c)| a >= cx || b >= cy || c >= cz) {
+                                continue;
+                            }
+                            let v = quad.map(|(a, b, c)| cell(a, b, c));
+                            if v.contains(&u32::MAX) {
+                                continue;
+                            }
+                            // Inside → outside along +axis: the quad's normal (+axis) is outward.
+                            let mut tris = if f0 < 0.0 {
+                                [[v[0], v[1], v[2]], [v[0], v[2], v[3]]]
+                            } else {
+                                [[v[0], v[2], v[1]], [v[0], v[3], v[2]]]
+                            };
+                            let q = if f0 < 0.0 {
+                                v
+                            } else {
+                                [v[0], v[3], v[2], v[1]]
+                            };
+                            if options.creases && !split_along_02(&mesh, q) {
+                                tris = [[q[1], q[2], q[3]], [q[1], q[3], q[0]]];
+                            }
+                            triangles.extend(tris);
                         }
-                        if quad.iter().any(|&(a, b, c)| a >= cx || b >= cy || c >= cz) {
-                            continue;
-                        }
-                        let v = quad.map(|(a, b, c)| cell(a, b, c));
-                        if v.contains(&u32::MAX) {
-                            continue;
-                        }
-                        // Inside → outside along +axis: the quad's normal (+axis) is outward.
-                        let mut tris = if f0 < 0.0 {
-                            [[v[0], v[1], v[2]], [v[0], v[2], v[3]]]
-                        } else {
-                            [[v[0], v[2], v[1]], [v[0], v[3], v[2]]]
-                        };
-                        let q = if f0 < 0.0 {
-                            v
-                        } else {
-                            [v[0], v[3], v[2], v[1]]
-                        };
-                        if options.creases && !split_along_02(&mesh, q) {
-                            tris = [[q[1], q[2], q[3]], [q[1], q[3], q[0]]];
-                        }
-                        mesh.triangles.extend(tris);
                     }
                 }
             }
-        }
-    }
+            triangles
+        })
+        .collect();
+    mesh.triangles = quads.concat();
     stats.sharpened = sharpened.len() - features::unfold(&mut mesh, &sharpened);
     stats.timings.stitch_s = stitch_started.elapsed().as_secs_f64();
     stats.timings.wall_s = started.elapsed().as_secs_f64();
@@ -655,6 +689,10 @@ fn split_along_02(mesh: &TriMesh, v: [u32; 4]) -> bool {
     let along_13 = agreement([v[1], v[2], v[3]]).min(agreement([v[1], v[3], v[0]]));
     along_02 >= along_13
 }
+
+/// Hash maps keyed by grid or block coordinates packed into one integer (a multiplicative
+/// hash).
+type Fast = BuildHasherDefault<MulHasher>;
 
 fn nanos(d: std::time::Duration) -> u64 {
     d.as_nanos() as u64
