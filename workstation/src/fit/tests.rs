@@ -246,3 +246,35 @@ fn error_samples_over_the_cap_is_a_named_error() {
         "--error-samples = 10000001 is over the limit of 10000000 samples (MAX_SURFACE_SAMPLES)"
     );
 }
+
+/// A point file whose normals' signs are noise (as some scanners write them) is fitted with
+/// them made consistent, on the fit's own k-NN graph: a whole sphere, near the truth.
+#[test]
+fn file_with_unoriented_normals_fits_whole() {
+    let dir = std::env::temp_dir().join(format!("ws-fit-unoriented-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut sphere = sim_core::sampling::Shape::Sphere { radius: 1.0 }.sample(4000, 7);
+    for (i, n) in sphere.normals.as_mut().unwrap().iter_mut().enumerate() {
+        if (i * 7919) % 13 < 6 {
+            *n = -*n;
+        }
+    }
+    let path = dir.join("scrambled.ply");
+    let file = File::create(&path).unwrap();
+    io::write_points_ply(BufWriter::new(file), &sphere, false).unwrap();
+    let mesh = dir.join("out.ply");
+    let report = run(&args(&[
+        path.to_str().unwrap(),
+        "--quiet",
+        "--reference",
+        "sphere:1",
+        "--resolution",
+        "40",
+        "--mesh",
+        mesh.to_str().unwrap(),
+    ]))
+    .unwrap();
+    assert!(report.projected_rms_error.unwrap() < 2e-3, "{report:?}");
+    assert_eq!(report.mesh_profile.as_ref().unwrap().components, 1);
+    std::fs::remove_dir_all(&dir).ok();
+}
