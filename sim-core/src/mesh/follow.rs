@@ -59,7 +59,6 @@ type Kept = ([f64; 8], Verdict);
 /// per chunk, not once per item).
 const TIMED_CHUNK: usize = 256;
 
-
 /// Walk the trusted zero set of `field` on `spec` from the points' cells.
 pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
     let dims = spec.dims;

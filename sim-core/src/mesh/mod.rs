@@ -30,13 +30,13 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::field::{GlobalField, SupportList};
-use crate::spatial::MulHasher;
 use crate::grid::GridSpec;
 use crate::projection::{ProjectOptions, project_to_zero_set_near, project_to_zero_set_near_from};
 use crate::sparse::{
     BLOCK, BlockKey, all_blocks, block_box, block_dims, block_index, block_nodes, gather_block,
     sample_block,
 };
+use crate::spatial::MulHasher;
 
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside.
 #[derive(Debug, Clone, Default, PartialEq)]
