@@ -298,7 +298,7 @@ fn grid_row(
     near.truncate(want);
     let farthest = near[want - 1].0;
     let wall = grid.wall_distance(key, p);
-    if !(farthest < wall * wall) {
+    if farthest >= wall * wall {
         return false;
     }
     nb[0] = i as u32;
