@@ -1,5 +1,6 @@
 //! Nearest-neighbour queries over a fixed point set: a k-d tree (`kiddo`'s immutable tree, which
-//! tolerates duplicate and coplanar points) and the k-NN graph used by normals and fits.
+//! tolerates duplicate and coplanar points) and the k-NN graph used by normals and fits (found
+//! in a uniform grid of cells, with the tree where a cell's block cannot prove a row).
 //!
 //! Contract: built once (a graph may then be shrunk per point, [`KnnGraph::shrink`], before
 //! use), then immutable, `Send + Sync`; [`PointIndex::nearest`] does not allocate.
@@ -98,7 +99,8 @@ impl KnnGraph {
     /// radius wide (measured with `index`); each cell gathers the points of its 3 × 3 × 3 block
     /// once and every point in it picks its nearest from those. That answer is exact when the
     /// farthest one picked lies nearer than the block's walls; a point where it does not (a
-    /// sparse region) asks `index`. Ties in distance go to the lower index.
+    /// sparse region) asks `index`. Where distances tie, a row from the grid takes the lower
+    /// index first, one from the tree the tree's order.
     pub fn build(points: &[DVec3], index: &PointIndex, k: usize) -> Self {
         let k = k.clamp(1, points.len());
         match CellGrid::new(points, index, k) {
@@ -298,7 +300,8 @@ fn grid_row(
     near.truncate(want);
     let farthest = near[want - 1].0;
     let wall = grid.wall_distance(key, p);
-    if farthest >= wall * wall {
+    // Not proven where either is NaN (a non-finite point): the tree answers.
+    if farthest.partial_cmp(&(wall * wall)) != Some(std::cmp::Ordering::Less) {
         return false;
     }
     nb[0] = i as u32;
@@ -337,7 +340,8 @@ const GRID_FROM: usize = 512;
 impl CellGrid {
     /// Cells as wide as the 75th percentile of sampled points' `k`-neighbourhood radii (most
     /// points then find all their neighbours in their 3 × 3 × 3 block); `None` where that
-    /// cannot work: few points, a degenerate radius or a box too many cells wide.
+    /// cannot work: few points, a non-finite one, a degenerate radius or a box too many cells
+    /// wide.
     fn new(points: &[DVec3], index: &PointIndex, k: usize) -> Option<Self> {
         if points.len() < GRID_FROM || k < 2 {
             return None;
@@ -349,16 +353,21 @@ impl CellGrid {
             .collect();
         radii.sort_by(f64::total_cmp);
         let cell = radii[radii.len() * 3 / 4];
+        if !points.iter().all(|p| p.is_finite()) {
+            return None;
+        }
         let (lo, hi) = points.iter().fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(*p), hi.max(*p)),
         );
         let cells = ((hi - lo) / cell).max_element();
-        if !(cell > 0.0 && cell.is_finite() && cells < (1u64 << KEY_BITS) as f64 - 4.0) {
+        if !(cell > 0.0 && cell.is_finite() && cells < (1u64 << KEY_BITS) as f64 - 8.0) {
             return None;
         }
-        // One cell of margin below, so the block around any cell has non-negative coordinates.
-        let origin = lo - DVec3::splat(cell);
+        // Two cells of margin below, so every point's cell is at least 1 on each axis (even
+        // where rounding puts the lowest a hair below its cell) and the block around it has
+        // non-negative coordinates.
+        let origin = lo - DVec3::splat(2.0 * cell);
         let mut order: Vec<(u64, u32)> = points
             .par_iter()
             .enumerate()
@@ -502,6 +511,18 @@ mod tests {
                 assert!((g - t).abs() <= 1e-12 * t, "k {k}: {g} vs {t}");
             }
         }
+    }
+
+    #[test]
+    fn a_non_finite_point_leaves_the_graph_to_the_tree() {
+        let mut pts = crate::sampling::Shape::Sphere { radius: 1.0 }
+            .sample(1_000, 3)
+            .positions;
+        let index = PointIndex::new(&pts);
+        assert!(CellGrid::new(&pts, &index, 8).is_some());
+        pts.push(DVec3::new(f64::NAN, 0.0, 0.0));
+        let index = PointIndex::new(&pts);
+        assert!(CellGrid::new(&pts, &index, 8).is_none());
     }
 
     #[test]
