@@ -36,9 +36,10 @@ pub(super) struct Followed {
     /// evaluated), ready for the per-block cell scan.
     pub values: HashMap<BlockKey, Vec<f64>>,
     /// The cells the walk found crossed where the surface is trusted and faces its points,
-    /// per block: local cell index (`(k · BLOCK + j) · BLOCK + i`, ascending) and the vouching
-    /// points' facing there ([`GlobalField::trusted_facing_near`]). Meshing places vertices
-    /// only there, their trust already tested.
+    /// per block: local cell index (`(k · BLOCK + j) · BLOCK + i`, ascending) and its trust
+    /// verdict ([`Verdict`]: the vouching points' facing there,
+    /// [`GlobalField::trusted_facing_near`], and whether its first guess was trusted). Meshing
+    /// places vertices only there, their trust already tested.
     pub crossed: HashMap<BlockKey, Vec<(u32, Verdict)>>,
     /// Field evaluations made (one per node).
     pub evaluations: usize,
@@ -270,11 +271,11 @@ pub(super) fn follow(field: &GlobalField, spec: &GridSpec) -> Followed {
     }
 
     let mut crossed: HashMap<BlockKey, Vec<(u32, Verdict)>> = HashMap::new();
-    for (c, facing) in crossed_cells {
+    for (c, verdict) in crossed_cells {
         let b = c.map(|v| v / BLOCK);
         let l = c.map(|v| v % BLOCK);
         let local = ((l[2] * BLOCK + l[1]) * BLOCK + l[0]) as u32;
-        crossed.entry(b).or_default().push((local, facing));
+        crossed.entry(b).or_default().push((local, verdict));
     }
     for cells in crossed.values_mut() {
         cells.sort_unstable_by_key(|c| c.0);
