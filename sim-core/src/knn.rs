@@ -14,7 +14,7 @@ use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use rayon::prelude::*;
 
-use crate::spatial::MulHasher;
+use crate::spatial::{KEY_BITS, MulHasher, cell_of, key};
 
 /// A k-d tree over positions, returning indices into the original slice.
 pub struct PointIndex {
@@ -140,16 +140,16 @@ impl KnnGraph {
             .zip(sorted_ds.par_chunks_mut(k * CHUNK))
             .enumerate()
             .for_each_init(
-                || (Vec::new(), Vec::new(), Vec::new(), u64::MAX),
+                || (Vec::new(), Vec::new(), Vec::new(), (u64::MAX, [0i64; 3])),
                 |(candidates, dist, near, cell), (chunk, (nbs, dss))| {
                     for (o, (nb, ds)) in nbs.chunks_mut(k).zip(dss.chunks_mut(k)).enumerate() {
                         let (key, i) = grid.order[chunk * CHUNK + o];
-                        if key != *cell {
-                            grid.gather_block(key, points, candidates);
-                            *cell = key;
+                        if key != cell.0 {
+                            *cell = (key, grid.cell_of(points[i as usize]));
+                            grid.gather_block(cell.1, points, candidates);
                         }
                         if !grid_row(
-                            points, grid, key, i as usize, candidates, dist, near, nb, ds,
+                            points, grid, cell.1, i as usize, candidates, dist, near, nb, ds,
                         ) {
                             tree_row(points, index, i as usize, nb, ds);
                         }
@@ -252,14 +252,14 @@ fn tree_row(points: &[DVec3], index: &PointIndex, i: usize, nb: &mut [u32], ds: 
 }
 
 /// Point `i`'s row from `candidates` (the points of the 3 × 3 × 3 block of cells around its
-/// cell `key`), or `false` when they cannot prove it: fewer than `k − 1` others, or the
+/// cell `c`), or `false` when they cannot prove it: fewer than `k − 1` others, or the
 /// farthest of the `k − 1` nearest not nearer than the block's nearest wall (a point beyond
 /// it might be nearer).
 #[allow(clippy::too_many_arguments)]
 fn grid_row(
     points: &[DVec3],
     grid: &CellGrid,
-    key: u64,
+    c: [i64; 3],
     i: usize,
     candidates: &[(DVec3, u32)],
     dist: &mut Vec<f64>,
@@ -299,7 +299,7 @@ fn grid_row(
     near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     near.truncate(want);
     let farthest = near[want - 1].0;
-    let wall = grid.wall_distance(key, p);
+    let wall = grid.wall_distance(c, p);
     // Not proven where either is NaN (a non-finite point): the tree answers.
     if farthest.partial_cmp(&(wall * wall)) != Some(std::cmp::Ordering::Less) {
         return false;
@@ -330,8 +330,6 @@ struct CellGrid {
     ranges: HashMap<u64, (u32, u32), BuildHasherDefault<MulHasher>>,
 }
 
-/// Bits per axis of a cell key.
-const KEY_BITS: u32 = 21;
 /// Points sampled (evenly by index) to size the cells.
 const CELL_SAMPLES: usize = 64;
 /// Fewer points than this are searched in the tree alone.
@@ -371,10 +369,7 @@ impl CellGrid {
         let mut order: Vec<(u64, u32)> = points
             .par_iter()
             .enumerate()
-            .map(|(i, p)| {
-                let c = ((*p - origin) / cell).floor();
-                (pack([c.x as u64, c.y as u64, c.z as u64]), i as u32)
-            })
+            .map(|(i, p)| (key(cell_of(*p - origin, cell)), i as u32))
             .collect();
         order.par_sort_unstable();
         let mut ranges = HashMap::default();
@@ -393,14 +388,18 @@ impl CellGrid {
         })
     }
 
-    /// The points of the 3 × 3 × 3 block of cells around cell `key`, into `out`.
-    fn gather_block(&self, key: u64, points: &[DVec3], out: &mut Vec<(DVec3, u32)>) {
+    /// The cell of point `p`.
+    fn cell_of(&self, p: DVec3) -> [i64; 3] {
+        cell_of(p - self.origin, self.cell)
+    }
+
+    /// The points of the 3 × 3 × 3 block of cells around cell `c`, into `out`.
+    fn gather_block(&self, c: [i64; 3], points: &[DVec3], out: &mut Vec<(DVec3, u32)>) {
         out.clear();
-        let c = unpack(key);
         for z in c[2] - 1..=c[2] + 1 {
             for y in c[1] - 1..=c[1] + 1 {
                 for x in c[0] - 1..=c[0] + 1 {
-                    if let Some(&(s, e)) = self.ranges.get(&pack([x, y, z])) {
+                    if let Some(&(s, e)) = self.ranges.get(&key([x, y, z])) {
                         out.extend(
                             self.order[s as usize..e as usize]
                                 .iter()
@@ -412,23 +411,13 @@ impl CellGrid {
         }
     }
 
-    /// How far `p` (in cell `key`) lies from the nearest wall of the block around that cell.
-    fn wall_distance(&self, key: u64, p: DVec3) -> f64 {
-        let c = unpack(key);
+    /// How far `p` (in cell `c`) lies from the nearest wall of the block around that cell.
+    fn wall_distance(&self, c: [i64; 3], p: DVec3) -> f64 {
         let lo = self.origin
             + DVec3::new(c[0] as f64 - 1.0, c[1] as f64 - 1.0, c[2] as f64 - 1.0) * self.cell;
         let hi = lo + DVec3::splat(3.0 * self.cell);
         (p - lo).min(hi - p).min_element()
     }
-}
-
-fn pack(c: [u64; 3]) -> u64 {
-    (c[2] << (2 * KEY_BITS)) | (c[1] << KEY_BITS) | c[0]
-}
-
-fn unpack(key: u64) -> [u64; 3] {
-    let mask = (1u64 << KEY_BITS) - 1;
-    [key & mask, (key >> KEY_BITS) & mask, key >> (2 * KEY_BITS)]
 }
 
 #[cfg(test)]

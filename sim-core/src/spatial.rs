@@ -230,15 +230,23 @@ impl SupportGrid {
     }
 }
 
-fn cell_of(p: DVec3, cell: f64) -> [i64; 3] {
+/// The integer cell of `p` (relative to the grid's origin) in a grid of cells `cell` wide.
+pub(crate) fn cell_of(p: DVec3, cell: f64) -> [i64; 3] {
     let f = (p / cell).floor();
     [f.x as i64, f.y as i64, f.z as i64]
 }
 
-fn key(c: [i64; 3]) -> u64 {
-    // 21 bits per axis; wrapping collisions only merge cells, which stays correct (superset).
-    let m = (1u64 << 21) - 1;
-    ((c[0] as u64) & m) | (((c[1] as u64) & m) << 21) | (((c[2] as u64) & m) << 42)
+/// Bits per axis of a [`key`].
+pub(crate) const KEY_BITS: u32 = 21;
+
+/// A cell's coordinates packed into one integer, [`KEY_BITS`] per axis. Coordinates beyond
+/// that wrap: cells then share a key, which a support query tolerates (it sees a superset);
+/// an exact use must keep its coordinates in `0..2^KEY_BITS`.
+pub(crate) fn key(c: [i64; 3]) -> u64 {
+    let m = (1u64 << KEY_BITS) - 1;
+    ((c[0] as u64) & m)
+        | (((c[1] as u64) & m) << KEY_BITS)
+        | (((c[2] as u64) & m) << (2 * KEY_BITS))
 }
 
 /// Multiplicative hasher for already well-mixed 64-bit keys.
