@@ -195,11 +195,12 @@ impl LocalFrame {
 /// Reusable per-thread scratch for [`fit_local`].
 #[derive(Debug, Clone)]
 pub struct FitScratch {
+    /// The normal matrix of a spline other than 3×3×3, `c × c` for `c` coefficients.
     ata: Vec<f64>,
+    /// The right-hand side, then the solution (any size).
     rhs: Vec<f64>,
-    /// The 27×27 system of the common 3×3×3 spline, in fixed-size rows.
+    /// The 27×27 normal matrix of the common 3×3×3 spline, in fixed-size rows.
     dense: Box<[[f64; 27]; 27]>,
-    rhs27: [f64; 27],
 }
 
 impl FitScratch {
@@ -210,7 +211,6 @@ impl FitScratch {
             ata: vec![0.0; c * c],
             rhs: vec![0.0; c],
             dense: Box::new([[0.0; 27]; 27]),
-            rhs27: [0.0; 27],
         }
     }
 }
@@ -269,11 +269,10 @@ pub fn fit_local(
     debug_assert_eq!(coeffs.len(), c);
     let normal = hood.normal.try_normalize().unwrap_or(DVec3::Z);
     let (t1, t2) = tangent_frame(normal);
-    let usable = |j: usize| fit_uses(hood.normals[j], normal, params);
     let mut r = 0.0f64;
-    for j in 0..hood.points.len() {
-        if usable(j) {
-            r = r.max((hood.points[j] - hood.center).length());
+    for (p, n) in hood.points.iter().zip(hood.normals) {
+        if fit_uses(*n, normal, params) {
+            r = r.max((*p - hood.center).length());
         }
     }
     if !(r > 0.0 && r.is_finite()) {
@@ -286,124 +285,175 @@ pub fn fit_local(
         half: r + eps,
     };
     let inv_h2 = 1.0 / (params.weight_width * r).powi(2);
-    let inv_edge = 0.5 / frame.half;
-
-    let mut rows = [([0.0; 27], [0usize; 27], 0.0, 0.0); 3];
-    let (dense, rhs27) = (&mut *scratch.dense, &mut scratch.rhs27);
-    let ata = &mut scratch.ata[..c * c];
-    let rhs = &mut scratch.rhs[..c];
-    // The common 3×3×3 spline: the normal matrix from its tensor structure. Entry
-    // ((a,b,c),(a',b',c')) is Σ θ·Bₐ(u)Bₐ'(u)·B_b(v)B_b'(v)·B_c(w)B_c'(w): each axis's pair
-    // of basis functions is unordered, so 6·6·6 sums carry all 27·27 entries, and a row adds
-    // the outer product of its three axes' 6 pair products: 216 sums updated per neighbour
-    // (its three rows at once) against the upper triangle's 378, in fixed-size rows. About a
-    // fifth less time per fit (9.4–12.6 against 10.5–17.5 µs, interleaved in one process on
-    // this noisy VM); the same matrix up to rounding (coefficients within 4e-12).
-    let mut pairs = [0.0f64; 216];
-    if size == 3 {
-        rhs27.fill(0.0);
-    } else {
-        ata.fill(0.0);
-        rhs.fill(0.0);
-    }
-    for j in 0..hood.points.len() {
-        if !usable(j) {
-            continue;
-        }
-        let p = hood.points[j];
-        let theta = (-(p - hood.center).length_squared() * inv_h2).exp();
-        let nj = hood.normals[j];
-        let off = theta * params.normal_weight;
-        let samples = [
-            (p, 0.0, theta),
-            (p + nj * eps, eps, off),
-            (p - nj * eps, -eps, off),
-        ];
-        if size == 3 {
-            // The neighbour's three rows' pair products, then one pass over the sums (each
-            // loaded and stored once per neighbour, not once per row).
-            let mut uv = [[0.0; 36]; 3];
-            let mut pw = [[0.0; 6]; 3];
-            for (r, (x, target, weight)) in samples.into_iter().enumerate() {
-                let [u, v, w] = frame.to_local(x);
-                let (bu, bv, bw) = (basis1(3, u).value, basis1(3, v).value, basis1(3, w).value);
-                // Residual against the planar prior `w − ½` (normalised units).
-                let wr = weight * (target * inv_edge - (w - 0.5));
-                for a in 0..3 {
-                    for b in 0..3 {
-                        let ab = bu[a] * bv[b] * wr;
-                        for cc in 0..3 {
-                            rhs27[(a * 3 + b) * 3 + cc] += ab * bw[cc];
-                        }
-                    }
-                }
-                let (pu, pv) = (pair_products(bu), pair_products(bv));
-                for (row, pu) in uv[r].chunks_exact_mut(6).zip(pu) {
-                    for (x, pv) in row.iter_mut().zip(pv) {
-                        *x = pu * pv;
-                    }
-                }
-                pw[r] = pair_products(bw).map(|x| x * weight);
-            }
-            for (k, row) in pairs.chunks_exact_mut(6).enumerate() {
-                let (a0, a1, a2) = (uv[0][k], uv[1][k], uv[2][k]);
-                for (cc, acc) in row.iter_mut().enumerate() {
-                    *acc += a0 * pw[0][cc] + a1 * pw[1][cc] + a2 * pw[2][cc];
-                }
-            }
-            continue;
-        }
-        for (row, (x, target, weight)) in rows.iter_mut().zip(samples) {
-            let [u, v, w] = frame.to_local(x);
-            basis3(size, u, v, w, &mut row.0, &mut row.1);
-            // Residual against the planar prior `w − ½` (normalised units).
-            row.2 = target * inv_edge - (w - 0.5);
-            row.3 = weight;
-        }
-        for (vals, idx, res, theta) in &rows {
-            for a in 0..27 {
-                let wa = theta * vals[a];
-                rhs[idx[a]] += wa * res;
-                let row = &mut ata[idx[a] * c..idx[a] * c + c];
-                for b in a..27 {
-                    row[idx[b]] += wa * vals[b];
-                }
-            }
-        }
-    }
-    if size == 3 {
-        // The upper triangle, which the solve reads, from the pair sums.
-        for ((row, from), a) in dense.iter_mut().zip(&PAIR_OF_ENTRY).zip(0..) {
-            for (entry, &k) in row.iter_mut().zip(from).skip(a) {
-                *entry = pairs[k as usize];
-            }
-        }
-    }
+    // Each usable neighbour's three rows: the point itself, and ±ε along its normal.
+    let rows = hood
+        .points
+        .iter()
+        .zip(hood.normals)
+        .filter(|(_, n)| fit_uses(**n, normal, params))
+        .map(|(&p, &n)| {
+            let theta = (-(p - hood.center).length_squared() * inv_h2).exp();
+            let off = theta * params.normal_weight;
+            [
+                FitRow {
+                    at: p,
+                    target: 0.0,
+                    weight: theta,
+                },
+                FitRow {
+                    at: p + n * eps,
+                    target: eps,
+                    weight: off,
+                },
+                FitRow {
+                    at: p - n * eps,
+                    target: -eps,
+                    weight: off,
+                },
+            ]
+        });
     let solved = if size == 3 {
-        let trace: f64 = (0..27).map(|a| dense[a][a]).sum();
-        let lambda = params.regularization * trace / 27.0 + f64::MIN_POSITIVE;
-        (0..27).for_each(|a| dense[a][a] += lambda);
-        let ok = cholesky_solve_fixed(dense, rhs27);
-        rhs[..27].copy_from_slice(&rhs27[..]);
-        ok
+        let rhs: &mut [f64; 27] = (&mut scratch.rhs[..27])
+            .try_into()
+            .expect("27 coefficients");
+        solve_tensor_3(&frame, rows, params.regularization, &mut scratch.dense, rhs)
     } else {
-        let trace: f64 = (0..c).map(|a| ata[a * c + a]).sum();
-        let lambda = params.regularization * trace / c as f64 + f64::MIN_POSITIVE;
-        (0..c).for_each(|a| ata[a * c + a] += lambda);
-        cholesky_solve(ata, rhs, c)
+        let (ata, rhs) = (&mut scratch.ata[..c * c], &mut scratch.rhs[..c]);
+        solve_general(size, &frame, rows, params.regularization, ata, rhs)
     };
+    let offsets = &scratch.rhs[..c];
     let edge = 2.0 * frame.half;
     for a in 0..size {
         for b in 0..size {
             for cc in 0..size {
                 let flat = (a * size + b) * size + cc;
                 let plane = greville(size, cc) - 0.5;
-                let delta = if solved { rhs[flat] } else { 0.0 };
+                let delta = if solved { offsets[flat] } else { 0.0 };
                 coeffs[flat] = (plane + delta) * edge;
             }
         }
     }
     frame
+}
+
+/// One row of a local fit's least squares: the field's value at `at` should be `target`
+/// (world units: the signed offset along the neighbour's normal), with weight `weight`.
+#[derive(Debug, Clone, Copy)]
+struct FitRow {
+    at: DVec3,
+    target: f64,
+    weight: f64,
+}
+
+impl FitRow {
+    /// The row's local coordinates and its residual against the planar prior `w − ½`
+    /// (normalised units).
+    #[inline]
+    fn local(&self, frame: &LocalFrame) -> ([f64; 3], f64) {
+        let q = frame.to_local(self.at);
+        (q, self.target * (0.5 / frame.half) - (q[2] - 0.5))
+    }
+}
+
+/// The Tikhonov weight λ added to the normal matrix's diagonal, relative to its mean `trace / c`.
+#[inline]
+fn tikhonov(regularization: f64, trace: f64, c: usize) -> f64 {
+    regularization * trace / c as f64 + f64::MIN_POSITIVE
+}
+
+/// Solve the 3×3×3 spline's regularised normal equations for the coefficient offsets from the
+/// planar field, into `rhs`; false if the matrix is not positive definite.
+///
+/// The normal matrix comes from its tensor structure. Entry ((a,b,c),(a',b',c')) is
+/// Σ θ·Bₐ(u)Bₐ'(u)·B_b(v)B_b'(v)·B_c(w)B_c'(w): each axis's pair of basis functions is
+/// unordered, so 6·6·6 sums carry all 27·27 entries, and a row adds the outer product of its
+/// three axes' 6 pair products: 216 sums updated per neighbour (its three rows at once)
+/// against the upper triangle's 378, in fixed-size rows. About a fifth less time per fit
+/// (9.3–12.6 against 10.5–17.5 µs, interleaved in one process on a noisy VM); the same matrix
+/// up to rounding (coefficients within 4e-12).
+fn solve_tensor_3(
+    frame: &LocalFrame,
+    rows: impl Iterator<Item = [FitRow; 3]>,
+    regularization: f64,
+    dense: &mut [[f64; 27]; 27],
+    rhs: &mut [f64; 27],
+) -> bool {
+    let mut pairs = [0.0f64; 216];
+    rhs.fill(0.0);
+    for neighbour in rows {
+        // The neighbour's three rows' pair products, then one pass over the sums (each
+        // loaded and stored once per neighbour, not once per row).
+        let mut uv = [[0.0; 36]; 3];
+        let mut pw = [[0.0; 6]; 3];
+        for (k, row) in neighbour.iter().enumerate() {
+            let ([u, v, w], residual) = row.local(frame);
+            let (bu, bv, bw) = (basis1(3, u).value, basis1(3, v).value, basis1(3, w).value);
+            let wr = row.weight * residual;
+            for a in 0..3 {
+                for b in 0..3 {
+                    let ab = bu[a] * bv[b] * wr;
+                    for cc in 0..3 {
+                        rhs[(a * 3 + b) * 3 + cc] += ab * bw[cc];
+                    }
+                }
+            }
+            let (pu, pv) = (pair_products(bu), pair_products(bv));
+            for (out, pu) in uv[k].chunks_exact_mut(6).zip(pu) {
+                for (x, pv) in out.iter_mut().zip(pv) {
+                    *x = pu * pv;
+                }
+            }
+            pw[k] = pair_products(bw).map(|x| x * row.weight);
+        }
+        for (k, sums) in pairs.chunks_exact_mut(6).enumerate() {
+            let (a0, a1, a2) = (uv[0][k], uv[1][k], uv[2][k]);
+            for (cc, acc) in sums.iter_mut().enumerate() {
+                *acc += a0 * pw[0][cc] + a1 * pw[1][cc] + a2 * pw[2][cc];
+            }
+        }
+    }
+    // The upper triangle, which the solve reads, from the pair sums.
+    for ((row, from), a) in dense.iter_mut().zip(&PAIR_OF_ENTRY).zip(0..) {
+        for (entry, &k) in row.iter_mut().zip(from).skip(a) {
+            *entry = pairs[k as usize];
+        }
+    }
+    let trace: f64 = (0..27).map(|a| dense[a][a]).sum();
+    let lambda = tikhonov(regularization, trace, 27);
+    (0..27).for_each(|a| dense[a][a] += lambda);
+    cholesky_solve_fixed(dense, rhs)
+}
+
+/// [`solve_tensor_3`] for any other spline size: each row's 27 nonzero basis products added to
+/// the upper triangle of the `c × c` normal matrix `ata` (`c = size³`).
+fn solve_general(
+    size: usize,
+    frame: &LocalFrame,
+    rows: impl Iterator<Item = [FitRow; 3]>,
+    regularization: f64,
+    ata: &mut [f64],
+    rhs: &mut [f64],
+) -> bool {
+    let c = rhs.len();
+    ata.fill(0.0);
+    rhs.fill(0.0);
+    let (mut vals, mut idx) = ([0.0; 27], [0usize; 27]);
+    for row in rows.flatten() {
+        let ([u, v, w], residual) = row.local(frame);
+        basis3(size, u, v, w, &mut vals, &mut idx);
+        for a in 0..27 {
+            let wa = row.weight * vals[a];
+            rhs[idx[a]] += wa * residual;
+            let out = &mut ata[idx[a] * c..idx[a] * c + c];
+            for b in a..27 {
+                out[idx[b]] += wa * vals[b];
+            }
+        }
+    }
+    let trace: f64 = (0..c).map(|a| ata[a * c + a]).sum();
+    let lambda = tikhonov(regularization, trace, c);
+    (0..c).for_each(|a| ata[a * c + a] += lambda);
+    cholesky_solve(ata, rhs, c)
 }
 
 /// Index of the unordered pair `{i, j}` of the three quadratic basis functions in
