@@ -75,6 +75,15 @@ pub struct FitParams {
     /// point (the papers' model, which sculpting needs: each point carries its own field).
     #[serde(default)]
     pub centre_spacing: f64,
+    /// [`FitParams::centre_spacing`] where the surface is flat, for a thinned field only (a
+    /// larger value, or 0 for the same): a point whose neighbours all face within 1.8° of it,
+    /// lie within 0.5 % of its neighbourhood radius of its tangent plane and surround it (their
+    /// mean offset along the plane under 0.2 of that radius) gets a field only where no centre
+    /// lies within this fraction of its radius. A plane is any local fit's exact answer, so a
+    /// flat face needs fewer fields than a curved one; a crease, a rim or a bend keeps the
+    /// closer spacing. 0: the same spacing everywhere.
+    #[serde(default)]
+    pub flat_spacing: f64,
     /// Gap fields, for a thinned (static) field only ([`FitParams::centre_spacing`] > 0; with
     /// a field at every point this has no effect): where a centre's neighbours lean to one
     /// side (their mean offset along its tangent plane is at least this fraction of its
@@ -148,6 +157,7 @@ impl Default for FitParams {
             trust_plane: 0.2,
             trust_facing: true,
             centre_spacing: 0.0,
+            flat_spacing: 0.0,
             gap_fields: 0.0,
             k_even: 0,
             even_lean: 0.0,

@@ -109,6 +109,12 @@ pub struct FitArgs {
     /// the surface a sculpting scene uses (to measure that field's error).
     #[arg(long, default_value_t = FIT_CENTRE_SPACING)]
     pub centre_spacing: f64,
+    /// With thinned centres: the spacing where the surface is flat (the neighbours face within
+    /// 1.8° of the point, lie on its tangent plane within 0.5 % of their radius and surround it),
+    /// which any local fit follows exactly with fewer fields; creases, rims and bends keep
+    /// --centre-spacing. 0 (or not above --centre-spacing): the same spacing everywhere
+    #[arg(long, default_value_t = FIT_FLAT_SPACING)]
+    pub flat_spacing: f64,
     /// Gap fields (with thinned centres only): where a centre's neighbours lean to one side by
     /// at least this fraction of its neighbourhood radius and a point lies across the gap on
     /// the other side, one more local field is fitted in the gap (the place between them
@@ -376,6 +382,14 @@ fn write_mesh(path: &Path, mesh: &TriMesh) -> anyhow::Result<()> {
 /// a two-triangle piece on the CSG crease, and 0.5 split three shapes and grew the errors.
 const FIT_CENTRE_SPACING: f64 = 0.35;
 
+/// `fit`'s default [`FitParams::flat_spacing`] (the library's is 0: off). At resolution 200
+/// against 0: the thin plate 8,093 fields instead of 10,853, the rounded box 8,156 instead of
+/// 10,886, the fandisk 5,378 instead of 6,159, their errors within 2 % (the plate's coverage
+/// max 6 %); the scans and curved shapes unchanged, bit for bit. 0.6 opened a hole in a slab
+/// two cells thick on a coarse grid (`parts_two_to_three_cells_thick_mesh_whole_on_a_coarse_grid`)
+/// (docs/BENCHMARKS.md, "Flat faces").
+const FIT_FLAT_SPACING: f64 = 0.5;
+
 /// `fit`'s default [`FitParams::gap_fields`] (the library's is 0: none). On the MeshLab
 /// comparison shapes (resolution 200, the other defaults) against none: the rocker arm's RMS
 /// 13 % lower and its max 9 %, the thin plate's max 17 %; the torus's max 30 % higher (still
@@ -496,6 +510,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
         trust_plane: args.trust_plane,
         trust_facing: args.trust_facing,
         centre_spacing: args.centre_spacing,
+        flat_spacing: args.flat_spacing,
         gap_fields: args.gap_fields,
         k_even: args.k_even,
         even_lean: args.even_lean,
@@ -658,8 +673,15 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
         r.params.k, r.params.size, r.params.offset, r.threads
     );
     println!(
-        "fields       {} local fields (centre spacing {}; {} of them gap fields)",
-        r.local_fields, r.params.centre_spacing, r.gap_fields
+        "fields       {} local fields (centre spacing {}{}; {} of them gap fields)",
+        r.local_fields,
+        r.params.centre_spacing,
+        if r.params.flat_spacing > r.params.centre_spacing {
+            format!(", {} where flat", r.params.flat_spacing)
+        } else {
+            String::new()
+        },
+        r.gap_fields
     );
     if r.params.k_even > 0 {
         println!(

@@ -25,9 +25,11 @@ pub fn thinned_with_gaps() -> FitParams {
 }
 
 /// `workstation fit`'s defaults for a static surface: [`thinned_with_gaps`] with smaller
-/// neighbourhoods where the nearest 16 surround a point, and fits weighed by their misfit.
+/// neighbourhoods where the nearest 16 surround a point, fits weighed by their misfit, and
+/// fewer centres on flat faces.
 pub fn fit_defaults() -> FitParams {
     FitParams {
+        flat_spacing: 0.5,
         k_even: 16,
         even_lean: 0.2,
         misfit_width: 0.035,

@@ -530,6 +530,58 @@ fn a_shell_thinner_than_the_supports_keeps_its_facing_test_quiet() {
     assert!(covers[0].rms < 1.3 * covers[1].rms, "{covers:?}");
 }
 
+/// Flat faces thinned further (`FitParams::flat_spacing`, what `fit` meshes with): on a thin
+/// plate (two flat sheets 5 % of its size apart, joined by round edges) a quarter fewer
+/// fields, meshed as accurately in one piece; on a torus, where no neighbourhood is flat, the
+/// very same field.
+#[test]
+fn flat_faces_take_fewer_fields_and_mesh_the_same() {
+    let plate = Shape::Plate {
+        half_size: 1.0,
+        thickness: 0.05,
+    };
+    let torus = Shape::Torus {
+        major: 1.0,
+        minor: 0.3,
+    };
+    let fitted = |shape: &Shape, flat_spacing| {
+        let points = shape.sample(20_000, 7);
+        let params = FitParams {
+            flat_spacing,
+            ..crate::common::fit_defaults()
+        };
+        let rec = fit(&points, &params, NormalPolicy::Keep);
+        let mesh = extract_zero_set(&rec.field, padded(&rec, &points.positions), 150);
+        (rec, mesh)
+    };
+    let (even, even_mesh) = fitted(&plate, 0.0);
+    let (flat, flat_mesh) = fitted(&plate, 0.5);
+    let (fields, fewer) = (even.field.len(), flat.field.len());
+    eprintln!("plate: {fields} fields, {fewer} with flat faces thinned");
+    assert!((fewer as f64) < 0.8 * fields as f64, "{fewer} of {fields}");
+    let e_even = mesh_error(&even_mesh, &plate, 100_000, 3).unwrap();
+    let e_flat = mesh_error(&flat_mesh, &plate, 100_000, 3).unwrap();
+    eprintln!(
+        "  mesh → plate {:?}\n  flat: {:?}",
+        e_even.to_reference, e_flat.to_reference
+    );
+    eprintln!(
+        "  coverage {:?}\n  flat: {:?}",
+        e_even.coverage, e_flat.coverage
+    );
+    assert_eq!(flat_mesh.components().1.len(), 1);
+    assert!(e_flat.to_reference.rms < 1.1 * e_even.to_reference.rms);
+    assert!(e_flat.coverage.rms < 1.1 * e_even.coverage.rms);
+    assert!(e_flat.to_reference.max < 1.5 * e_even.to_reference.max);
+    // No hole: covered as the evenly thinned field is.
+    assert!(e_flat.coverage.max < 1.5 * e_even.coverage.max);
+
+    let (even, even_mesh) = fitted(&torus, 0.0);
+    let (flat, flat_mesh) = fitted(&torus, 0.5);
+    assert_eq!(flat.field.len(), even.field.len());
+    assert_eq!(flat_mesh.vertices, even_mesh.vertices);
+}
+
 /// Local fields at a thinned subset of the points (`FitParams::centre_spacing`, what `fit`
 /// meshes with) cost a fraction of the fits, blend about as accurately, and trust the same
 /// places: the trust tests consult every point, not just the centres. With the centres alone
