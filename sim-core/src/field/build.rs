@@ -366,9 +366,9 @@ fn thinned_centres(
 /// (1.8°), the farthest a neighbour may lie off its tangent plane and how far their mean offset
 /// along it may lean (both relative to the neighbourhood radius). Flat to within a scan's noise
 /// does not count: with 3.6° and 2 % (and a flat spacing of 0.6), 56 of the Stanford bunny
-/// scan's points, in small nearly
-/// flat patches all over it, took the wider spacing, and its RMS error grew 1.4 % (2.6 % at
-/// resolution 100); with these, none does, while a CAD face or a sampled plane still does.
+/// scan's points, in small nearly flat patches all over it, took the wider spacing, and its RMS
+/// error grew 1.4 % (2.6 % at resolution 100); with these, none does, while a CAD face or a
+/// sampled plane still does.
 const FLAT_COS: f64 = 0.9995;
 const FLAT_OFF_PLANE: f64 = 0.005;
 const FLAT_LEAN: f64 = 0.2;
