@@ -344,16 +344,17 @@ fn thinned_centres(
         }
         let hood = knn.neighbours(i);
         let radius = knn.radius(i);
-        let spacing = if flat_spacing > spacing && is_flat(points, normals, i, hood, radius) {
-            flat_spacing
-        } else {
-            spacing
+        let covered_within = |reach: f64| {
+            hood.iter()
+                .zip(knn.distances(i))
+                .any(|(&j, &d)| taken[j as usize] && d <= reach)
         };
-        let reach = spacing * radius;
-        let covered = hood
-            .iter()
-            .zip(knn.distances(i))
-            .any(|(&j, &d)| taken[j as usize] && d <= reach);
+        // A point covered at the base spacing is covered at any wider one, so flatness (a pass
+        // over the neighbourhood) is asked only of the points the base spacing would keep.
+        let covered = covered_within(spacing * radius)
+            || (flat_spacing > spacing
+                && is_flat(points, normals, i, hood, radius)
+                && covered_within(flat_spacing * radius));
         if !covered {
             taken[i] = true;
             centres.push(i as u32);
