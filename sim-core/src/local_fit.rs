@@ -166,6 +166,16 @@ impl Default for FitParams {
     }
 }
 
+impl FitParams {
+    /// The wider spacing flat faces are thinned at ([`FitParams::flat_spacing`]), where it
+    /// applies: for a thinned field ([`FitParams::centre_spacing`] > 0) with a flat spacing
+    /// above the base one; `None` where every point keeps the base spacing.
+    pub fn flat_thinning(&self) -> Option<f64> {
+        (self.centre_spacing > 0.0 && self.flat_spacing > self.centre_spacing)
+            .then_some(self.flat_spacing)
+    }
+}
+
 /// Where a local field lives: centre, orthonormal axes (two tangents, then the normal) and the
 /// half edge `half` of its cube domain. Local coordinates are `(x−c)·axisₖ/(2·half) + ½ ∈ [0,1]`.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -676,11 +676,9 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
         "fields       {} local fields (centre spacing {}{}; {} of them gap fields)",
         r.local_fields,
         r.params.centre_spacing,
-        if r.params.flat_spacing > r.params.centre_spacing {
-            format!(", {} where flat", r.params.flat_spacing)
-        } else {
-            String::new()
-        },
+        r.params
+            .flat_thinning()
+            .map_or(String::new(), |flat| format!(", {flat} where flat")),
         r.gap_fields
     );
     if r.params.k_even > 0 {

@@ -335,7 +335,7 @@ fn thinned_centres(
     if spacing <= 0.0 {
         return (0..n as u32).collect();
     }
-    let flat_spacing = params.flat_spacing;
+    let flat_spacing = params.flat_thinning();
     let mut taken = vec![false; n];
     let mut centres = Vec::new();
     for i in 0..n {
@@ -352,9 +352,9 @@ fn thinned_centres(
         // A point covered at the base spacing is covered at any wider one, so flatness (a pass
         // over the neighbourhood) is asked only of the points the base spacing would keep.
         let covered = covered_within(spacing * radius)
-            || (flat_spacing > spacing
-                && is_flat(points, normals, i, hood, radius)
-                && covered_within(flat_spacing * radius));
+            || flat_spacing.is_some_and(|flat| {
+                is_flat(points, normals, i, hood, radius) && covered_within(flat * radius)
+            });
         if !covered {
             taken[i] = true;
             centres.push(i as u32);
@@ -540,6 +540,21 @@ mod tests {
             knn.distances(i),
             &params,
         )
+    }
+
+    #[test]
+    fn flat_faces_thin_further_only_in_a_thinned_field_and_above_its_spacing() {
+        let with = |centre_spacing, flat_spacing| FitParams {
+            centre_spacing,
+            flat_spacing,
+            ..FitParams::default()
+        };
+        assert_eq!(with(0.35, 0.5).flat_thinning(), Some(0.5));
+        // A field at every point is not thinned at all.
+        assert_eq!(with(0.0, 0.5).flat_thinning(), None);
+        // Off, or not wider than the base spacing.
+        assert_eq!(with(0.35, 0.0).flat_thinning(), None);
+        assert_eq!(with(0.35, 0.35).flat_thinning(), None);
     }
 
     #[test]
