@@ -69,11 +69,17 @@ impl PointIndex {
 
     /// The `k` nearest points to `x` as `(index, distance)`, nearest first.
     pub fn nearest_k(&self, x: DVec3, k: usize) -> Vec<(usize, f64)> {
+        self.nearest_k_within_squared(x, k, f64::INFINITY)
+    }
+
+    /// [`PointIndex::nearest_k`] among the points at most `√radius2` from `x`: the same
+    /// answer where at least `k` lie there, found sooner the tighter the bound.
+    fn nearest_k_within_squared(&self, x: DVec3, k: usize, radius2: f64) -> Vec<(usize, f64)> {
         let Some(k) = std::num::NonZero::new(k.min(self.len)) else {
             return Vec::new();
         };
         self.tree
-            .nearest_n::<SquaredEuclidean>(&x.to_array(), k)
+            .nearest_n_within::<SquaredEuclidean>(&x.to_array(), radius2, k, true)
             .into_iter()
             .map(|nn| (nn.item as usize, nn.distance.max(0.0).sqrt()))
             .collect()
@@ -99,8 +105,9 @@ impl KnnGraph {
     /// radius wide (measured with `index`); each cell gathers the points of its 3 × 3 × 3 block
     /// once and every point in it picks its nearest from those. That answer is exact when the
     /// farthest one picked lies nearer than the block's walls; a point where it does not (a
-    /// sparse region) asks `index`. Where distances tie, a row from the grid takes the lower
-    /// index first, one from the tree the tree's order.
+    /// sparse region) asks `index`, only as far out as that farthest one (its row lies within).
+    /// Where distances tie, a row from the grid takes the lower index first, one from the tree
+    /// the tree's order.
     pub fn build(points: &[DVec3], index: &PointIndex, k: usize) -> Self {
         let k = k.clamp(1, points.len());
         match CellGrid::new(points, index, k) {
@@ -117,7 +124,7 @@ impl KnnGraph {
             .par_chunks_mut(k)
             .zip(distances.par_chunks_mut(k))
             .enumerate()
-            .for_each(|(i, (nb, ds))| tree_row(points, index, i, nb, ds));
+            .for_each(|(i, (nb, ds))| tree_row(points, index, i, f64::INFINITY, nb, ds));
         Self {
             k,
             rows: Arc::new(Rows {
@@ -140,18 +147,18 @@ impl KnnGraph {
             .zip(sorted_ds.par_chunks_mut(k * CHUNK))
             .enumerate()
             .for_each_init(
-                || (Vec::new(), Vec::new(), Vec::new(), (u64::MAX, [0i64; 3])),
-                |(candidates, dist, near, cell), (chunk, (nbs, dss))| {
+                || (Vec::new(), Vec::new(), (u64::MAX, [0i64; 3])),
+                |(candidates, near, cell), (chunk, (nbs, dss))| {
                     for (o, (nb, ds)) in nbs.chunks_mut(k).zip(dss.chunks_mut(k)).enumerate() {
                         let (key, i) = grid.order[chunk * CHUNK + o];
                         if key != cell.0 {
                             *cell = (key, grid.cell_of(points[i as usize]));
                             grid.gather_block(cell.1, points, candidates);
                         }
-                        if !grid_row(
-                            points, grid, cell.1, i as usize, candidates, dist, near, nb, ds,
-                        ) {
-                            tree_row(points, index, i as usize, nb, ds);
+                        if let Err(bound) =
+                            grid_row(points, grid, cell.1, i as usize, candidates, near, nb, ds)
+                        {
+                            tree_row(points, index, i as usize, bound, nb, ds);
                         }
                     }
                 },
@@ -237,11 +244,19 @@ impl KnnGraph {
     }
 }
 
-/// Point `i`'s row by a k-d tree search: itself first (even where duplicates tie with it),
-/// then its nearest others.
-fn tree_row(points: &[DVec3], index: &PointIndex, i: usize, nb: &mut [u32], ds: &mut [f64]) {
+/// Point `i`'s row by a k-d tree search among the points whose squared distance to it is at
+/// most `bound2` (at least `k` of them, itself included; infinite where none is known): itself
+/// first (even where duplicates tie with it), then its nearest others.
+fn tree_row(
+    points: &[DVec3],
+    index: &PointIndex,
+    i: usize,
+    bound2: f64,
+    nb: &mut [u32],
+    ds: &mut [f64],
+) {
     let k = nb.len();
-    let found = index.nearest_k(points[i], k);
+    let found = index.nearest_k_within_squared(points[i], k, bound2);
     nb[0] = i as u32;
     ds[0] = 0.0;
     let others = found.into_iter().filter(|&(j, _)| j != i).take(k - 1);
@@ -252,9 +267,10 @@ fn tree_row(points: &[DVec3], index: &PointIndex, i: usize, nb: &mut [u32], ds: 
 }
 
 /// Point `i`'s row from `candidates` (the points of the 3 × 3 × 3 block of cells around its
-/// cell `c`), or `false` when they cannot prove it: fewer than `k − 1` others, or the
-/// farthest of the `k − 1` nearest not nearer than the block's nearest wall (a point beyond
-/// it might be nearer).
+/// cell `c`), or, where they cannot prove it, a squared distance its row lies within
+/// (infinite where unknown): with fewer than `k − 1` others, or the farthest of the `k − 1`
+/// nearest not nearer than the block's nearest wall (a point beyond it might be nearer; that
+/// farthest one bounds the row).
 #[allow(clippy::too_many_arguments)]
 fn grid_row(
     points: &[DVec3],
@@ -262,47 +278,44 @@ fn grid_row(
     c: [i64; 3],
     i: usize,
     candidates: &[(DVec3, u32)],
-    dist: &mut Vec<f64>,
     near: &mut Vec<(f64, u32)>,
     nb: &mut [u32],
     ds: &mut [f64],
-) -> bool {
+) -> Result<(), f64> {
     let k = nb.len();
     let p = points[i];
     let want = k - 1;
     if want == 0 {
         nb[0] = i as u32;
         ds[0] = 0.0;
-        return true;
+        return Ok(());
     }
-    // Squared distances to the others, the `want`-th smallest of them (a selection over
-    // plain floats), then the ones up to it sorted by (distance, index).
-    dist.clear();
-    dist.extend(
-        candidates
-            .iter()
-            .filter(|c| c.1 as usize != i)
-            .map(|&(q, _)| (q - p).length_squared()),
-    );
-    if dist.len() < want {
-        return false;
-    }
-    let (_, &mut cut, _) = dist.select_nth_unstable_by(want - 1, f64::total_cmp);
+    // The others by squared distance, the `want` nearest by (distance, index) selected, then
+    // sorted.
     near.clear();
     near.extend(
         candidates
             .iter()
             .filter(|c| c.1 as usize != i)
-            .map(|&(q, j)| ((q - p).length_squared(), j))
-            .filter(|e| e.0 <= cut),
+            .map(|&(q, j)| ((q - p).length_squared(), j)),
     );
-    near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    if near.len() < want {
+        return Err(f64::INFINITY);
+    }
+    let by_distance = |a: &(f64, u32), b: &(f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+    near.select_nth_unstable_by(want - 1, by_distance);
     near.truncate(want);
+    near.sort_unstable_by(by_distance);
     let farthest = near[want - 1].0;
     let wall = grid.wall_distance(c, p);
-    // Not proven where either is NaN (a non-finite point): the tree answers.
+    // Not proven where either is NaN (a non-finite point): the tree answers, unbounded.
     if farthest.partial_cmp(&(wall * wall)) != Some(std::cmp::Ordering::Less) {
-        return false;
+        // With a hair of slack, so the tree's own rounding of the distances keeps them.
+        return Err(if farthest.is_finite() {
+            farthest * (1.0 + 1e-9)
+        } else {
+            f64::INFINITY
+        });
     }
     nb[0] = i as u32;
     ds[0] = 0.0;
@@ -310,7 +323,7 @@ fn grid_row(
         nb[slot] = j;
         ds[slot] = d2.sqrt();
     }
-    true
+    Ok(())
 }
 
 /// A graph's rows: `k` neighbour ids and distances per point.
@@ -500,6 +513,44 @@ mod tests {
                 assert!((g - t).abs() <= 1e-12 * t, "k {k}: {g} vs {t}");
             }
         }
+    }
+
+    #[test]
+    fn rows_the_block_cannot_prove_are_searched_within_its_farthest_candidate() {
+        // A lattice (exact ties at every distance) beside a sparse sheet: where a block cannot
+        // prove a row, the tree searched only out to the block's farthest pick finds the
+        // unbounded search's row.
+        let mut pts: Vec<DVec3> = (0..40)
+            .flat_map(|i| (0..40).map(move |j| DVec3::new(i as f64, j as f64, 0.0) * 0.1))
+            .collect();
+        pts.extend((0..200).map(|i| DVec3::new((i % 20) as f64, (i / 20) as f64, 3.0)));
+        let index = PointIndex::new(&pts);
+        let k = 20;
+        let grid = CellGrid::new(&pts, &index, k).expect("a grid");
+        let (mut candidates, mut near) = (Vec::new(), Vec::new());
+        let (mut nb, mut ds) = (vec![0u32; k], vec![0.0; k]);
+        let (mut bounded, mut unbounded) = (0, 0);
+        for (i, &p) in pts.iter().enumerate() {
+            let c = grid.cell_of(p);
+            grid.gather_block(c, &pts, &mut candidates);
+            let Err(bound2) = grid_row(&pts, &grid, c, i, &candidates, &mut near, &mut nb, &mut ds)
+            else {
+                continue;
+            };
+            if bound2.is_finite() {
+                bounded += 1;
+            } else {
+                unbounded += 1;
+            }
+            let (mut wide_nb, mut wide_ds) = (vec![0u32; k], vec![0.0; k]);
+            tree_row(&pts, &index, i, bound2, &mut nb, &mut ds);
+            tree_row(&pts, &index, i, f64::INFINITY, &mut wide_nb, &mut wide_ds);
+            assert_eq!(ds, wide_ds, "point {i}");
+        }
+        assert!(
+            bounded > 100 && unbounded > 0,
+            "{bounded} bounded, {unbounded} unbounded"
+        );
     }
 
     #[test]
