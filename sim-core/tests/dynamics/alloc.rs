@@ -1,54 +1,13 @@
 //! The stepping contract: after warm-up, integrator steps, rope forces and snapshot publication
-//! allocate nothing (counted per thread by the test binary's global allocator).
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+//! allocate nothing (counted per thread by the test binary's global allocator,
+//! `support/counting_alloc.rs`).
 
 use glam::DVec3;
 use sim_core::dynamics::{Integrator, NodeParams, Stepper};
 use sim_core::tools::{Profile, Rope};
 
 use crate::common::{perturb, small_model};
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-    static ALLOCATED_BYTES: Cell<usize> = const { Cell::new(0) };
-}
-
-/// Counts allocations made by the current thread, then defers to the system allocator.
-pub struct Counting;
-
-// SAFETY: every call is forwarded unchanged to `System`, which upholds the `GlobalAlloc`
-// contract; the counter is a const-initialised thread-local `Cell` (no allocation, no reentry).
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-        let _ = ALLOCATED_BYTES.try_with(|c| c.set(c.get() + layout.size()));
-        // SAFETY: same contract as ours; `layout` is passed through.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: `ptr` was allocated by `System` with `layout` (see `alloc`).
-        unsafe { System.dealloc(ptr, layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-        // SAFETY: `ptr`/`layout` come from `System` (see `alloc`); forwarded unchanged.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
-
-/// Bytes of fresh allocations (growing a buffer in place, or moving it, is not counted: the
-/// object's point arrays grow amortised as points are inserted).
-fn allocated_bytes() -> usize {
-    ALLOCATED_BYTES.with(Cell::get)
-}
+use crate::counting_alloc::{allocated_bytes, allocations};
 
 #[test]
 fn steps_tools_and_publishing_allocate_nothing_after_warm_up() {

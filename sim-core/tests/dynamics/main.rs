@@ -3,6 +3,8 @@
 
 mod alloc;
 mod common;
+#[path = "../support/counting_alloc.rs"]
+mod counting_alloc;
 mod csg;
 mod grid_limits;
 mod integrators;
@@ -17,4 +19,4 @@ mod tool_inputs;
 mod tools;
 
 #[global_allocator]
-static ALLOCATOR: alloc::Counting = alloc::Counting;
+static ALLOCATOR: counting_alloc::Counting = counting_alloc::Counting;

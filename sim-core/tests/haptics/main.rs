@@ -5,6 +5,8 @@
 mod alloc;
 mod bspline;
 mod continuity;
+#[path = "../support/counting_alloc.rs"]
+mod counting_alloc;
 mod field;
 #[path = "../support/plot_setup.rs"]
 mod plot_setup;
@@ -13,3 +15,6 @@ mod probe;
 mod reaction;
 mod untrusted_input;
 mod wire;
+
+#[global_allocator]
+static ALLOCATOR: counting_alloc::Counting = counting_alloc::Counting;
