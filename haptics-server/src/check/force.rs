@@ -479,11 +479,16 @@ impl Phase for ForcePhase {
         }
         self.max_out = self.max_out.max(force.length());
         if let Some((t, f)) = self.prev_out {
-            // The slew limit grants at most two periods' worth per tick (a late tick).
-            let dt = now_ns
-                .saturating_sub(t)
-                .min(2 * self.params.period_ns())
-                .max(1);
+            // The slew limit grants at most two periods' worth per tick (a late tick), but a
+            // fading watchdog may shrink the output by what the real elapsed time grants.
+            let elapsed = now_ns.saturating_sub(t);
+            let fading = matches!(segment, Segment::Silence { .. }) && force.length() <= f.length();
+            let dt = if fading {
+                elapsed
+            } else {
+                elapsed.min(2 * self.params.period_ns())
+            };
+            let dt = dt.max(1);
             self.max_slew = self.max_slew.max((force - f).length() / (dt as f32 * 1e-9));
         }
         self.prev_out = Some((now_ns, force));
@@ -696,6 +701,37 @@ mod tests {
             s.axes
         );
         assert_eq!(evaluate(&s, "")[0].status, Status::Warn);
+    }
+
+    #[test]
+    fn late_ticks_in_the_fade_do_not_fail_a_watchdog_that_did_its_job() {
+        let mut dev = FakeDevice::new(FakeParams {
+            path: HandPath::Idle { at: Vec3::ZERO },
+            ..FakeParams::default()
+        });
+        let mut phase = ForcePhase::new(params(), 1.0);
+        // 1 ms ticks, but none from 22 to 29 ms after the last command: the fade's middle.
+        let mut now = 0;
+        let mut stalled = false;
+        while !phase.done() {
+            let since = now - phase.last_command_ns;
+            now += if phase.stop.is_some() && since == 22 * MS {
+                stalled = true;
+                7 * MS
+            } else {
+                MS
+            };
+            let s = dev.read(now).ok();
+            let f = phase.tick(now, s.as_ref());
+            dev.write_force(f).unwrap();
+        }
+        assert!(stalled);
+        let s = phase.summary();
+        let w = &s.watchdog;
+        assert_eq!(w.late_nonzero_ticks, 0, "{w:?}");
+        assert!(w.zero_ms.unwrap() <= 30.0, "{w:?}");
+        let items = evaluate(&s, "");
+        assert!(items.iter().all(|i| i.status == Status::Pass), "{items:#?}");
     }
 
     #[test]

@@ -10,7 +10,10 @@
 //!    linearly to 0 at `watchdog_zero_ns`; reaching zero re-arms (the next command ramps in).
 //! 3. **Clamp**: magnitude limited to `max_force_n`, direction kept.
 //! 4. **Slew**: the change per tick is limited to `slew_n_per_s × dt` (emergency stop bypasses
-//!    it: zero at once).
+//!    it: zero at once). `dt` is capped at two periods, so a loop that stalled cannot jump to a
+//!    new force; but while the watchdog fades, the magnitude may fall by what the real elapsed
+//!    time grants at the slew rate (never below the fade's own target), so late ticks on a
+//!    loaded machine do not carry force past the watchdog's zero time.
 //! 5. **Finite**: a non-finite value anywhere becomes zero and is counted.
 //!
 //! No allocation, no I/O: plain arithmetic on `Vec3`.
@@ -164,10 +167,8 @@ impl Safety {
     ) -> SafetyOutcome {
         let p = self.params;
         let mut out = SafetyOutcome::default();
-        let dt_ns = self
-            .last_ns
-            .map_or(0, |t| now_ns.saturating_sub(t))
-            .min(self.max_dt_ns);
+        let elapsed_ns = self.last_ns.map_or(0, |t| now_ns.saturating_sub(t));
+        let dt_ns = elapsed_ns.min(self.max_dt_ns);
         self.last_ns = Some(now_ns);
         let wanted = if wanted.is_finite() {
             wanted
@@ -225,12 +226,24 @@ impl Safety {
         if self.stage == Stage::Stopped {
             target = Vec3::ZERO;
         } else {
-            let max_step = p.slew_n_per_s.max(0.0) * dt_ns as f32 * 1e-9;
+            let slew = p.slew_n_per_s.max(0.0);
+            let faded = target.length();
+            let max_step = slew * dt_ns as f32 * 1e-9;
             let delta = target - self.last_force;
             let step = delta.length();
             if step > max_step {
                 target = self.last_force + delta * (max_step / step);
                 out.slewed = true;
+            }
+            // The fade is a schedule in time: after a late tick the capped step above would
+            // leave the output behind it. Shrink only, by real time at the slew rate.
+            if fading {
+                let reachable =
+                    (self.last_force.length() - slew * elapsed_ns as f32 * 1e-9).max(faded);
+                let mag = target.length();
+                if mag > reachable {
+                    target *= reachable / mag;
+                }
             }
         }
 

@@ -171,6 +171,33 @@ fn watchdog_fades_from_20_ms_to_zero_at_30_ms() {
 }
 
 #[test]
+fn late_ticks_during_the_fade_still_reach_zero_on_time() {
+    let (mut core, mut t) = engaged(Vec3::X);
+    let last_command = t;
+    run(&mut core, &mut t, 22, None, at(0.0));
+    // The loop stalls from 22 to 29 ms after the last command (a loaded machine): the fade
+    // asks for 0.1 N there, and a step capped at two periods would leave 0.4 N.
+    t = last_command + 29 * MS;
+    let f = core.tick(t, &at(0.0)).safety.force;
+    assert!((f.x - 0.1).abs() < 1e-4, "{f}");
+    t = last_command + 30 * MS;
+    assert_eq!(core.tick(t, &at(0.0)).safety.force, Vec3::ZERO);
+}
+
+#[test]
+fn a_stalled_loop_cannot_jump_to_a_new_force() {
+    let (mut core, mut t) = engaged(Vec3::ZERO);
+    // Commands keep arriving while the loop stalls for 15 ms; the first tick after it may
+    // move only what two periods grant (0.4 N), not 15 ms' worth.
+    for _ in 0..15 {
+        t += MS;
+        core.on_command(t, constant(Vec3::new(0.0, 3.0, 0.0)));
+    }
+    let f = core.tick(t, &at(0.0)).safety.force;
+    assert!((f.y - 0.4).abs() < 1e-5, "{f}");
+}
+
+#[test]
 fn local_model_force_is_stiffness_times_penetration() {
     let (mut core, mut t) = engaged(Vec3::ZERO);
     // Re-send the plane every tick; the cursor is 2 mm below it: 500 N/m × 2 mm = 1 N along +y.
