@@ -670,26 +670,33 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_loop_that_stalls_through_a_window_warns_instead_of_blaming_the_axes() {
+    /// The 1 N test on an idle fake hand, each tick at the time `next(phase, now)` gives.
+    fn stepped(mut next: impl FnMut(&ForcePhase, u64) -> u64) -> ForceSummary {
         let mut dev = FakeDevice::new(FakeParams {
             path: HandPath::Idle { at: Vec3::ZERO },
             ..FakeParams::default()
         });
         let mut phase = ForcePhase::new(params(), 1.0);
-        // 1 ms ticks, but nothing between 0.85 s and 1.1 s: +x's whole hold.
         let mut now = 0;
         while !phase.done() {
-            now += if (850..1100).contains(&(now / 1_000_000)) {
-                250_000_000
-            } else {
-                1_000_000
-            };
+            now = next(&phase, now);
             let s = dev.read(now).ok();
             let f = phase.tick(now, s.as_ref());
             dev.write_force(f).unwrap();
         }
-        let s = phase.summary();
+        phase.summary()
+    }
+
+    #[test]
+    fn a_loop_that_stalls_through_a_window_warns_instead_of_blaming_the_axes() {
+        // 1 ms ticks, but nothing between 0.85 s and 1.1 s: +x's whole hold.
+        let s = stepped(|_, now| {
+            now + if (850..1100).contains(&(now / MS)) {
+                250 * MS
+            } else {
+                MS
+            }
+        });
         assert!(
             s.axes[0].verdict.starts_with(NOT_MEASURED),
             "{:?}",
@@ -705,28 +712,14 @@ mod tests {
 
     #[test]
     fn late_ticks_in_the_fade_do_not_fail_a_watchdog_that_did_its_job() {
-        let mut dev = FakeDevice::new(FakeParams {
-            path: HandPath::Idle { at: Vec3::ZERO },
-            ..FakeParams::default()
-        });
-        let mut phase = ForcePhase::new(params(), 1.0);
         // 1 ms ticks, but none from 22 to 29 ms after the last command: the fade's middle.
-        let mut now = 0;
         let mut stalled = false;
-        while !phase.done() {
-            let since = now - phase.last_command_ns;
-            now += if phase.stop.is_some() && since == 22 * MS {
-                stalled = true;
-                7 * MS
-            } else {
-                MS
-            };
-            let s = dev.read(now).ok();
-            let f = phase.tick(now, s.as_ref());
-            dev.write_force(f).unwrap();
-        }
+        let s = stepped(|phase, now| {
+            let in_fade = phase.stop.is_some() && now - phase.last_command_ns == 22 * MS;
+            stalled |= in_fade;
+            now + if in_fade { 7 * MS } else { MS }
+        });
         assert!(stalled);
-        let s = phase.summary();
         let w = &s.watchdog;
         assert_eq!(w.late_nonzero_ticks, 0, "{w:?}");
         assert!(w.zero_ms.unwrap() <= 30.0, "{w:?}");
