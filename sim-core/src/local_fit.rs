@@ -265,10 +265,16 @@ pub fn fit_misfit(
     coeffs: &[f64],
 ) -> f64 {
     let (mut sum, mut count) = (0.0, 0usize);
+    // A plane's value is the offset along its normal (as the blend evaluates it).
+    let planar = is_tangent_plane(params.size, frame, coeffs);
     for (p, n) in hood.points.iter().zip(hood.normals) {
         if fit_uses(*n, frame.axes[2], params) {
-            let [u, v, w] = frame.to_local(*p);
-            let f = crate::bspline::eval3_value(params.size, coeffs, u, v, w);
+            let f = if planar {
+                (*p - frame.center).dot(frame.axes[2])
+            } else {
+                let [u, v, w] = frame.to_local(*p);
+                crate::bspline::eval3_value(params.size, coeffs, u, v, w)
+            };
             sum += f * f;
             count += 1;
         }
@@ -332,15 +338,17 @@ pub fn fit_local(
                 },
             ]
         });
-    let solved = if size == 3 {
-        let rhs: &mut [f64; 27] = (&mut scratch.rhs[..27])
-            .try_into()
-            .expect("27 coefficients");
-        solve_tensor_3(&frame, rows, params.regularization, &mut scratch.dense, rhs)
-    } else {
-        let (ata, rhs) = (&mut scratch.ata[..c * c], &mut scratch.rhs[..c]);
-        solve_general(size, &frame, rows, params.regularization, ata, rhs)
-    };
+    // A neighbourhood on the centre's tangent plane needs no solve: its answer is the plane.
+    let solved = !on_tangent_plane(size, &frame, rows.clone(), params.regularization)
+        && if size == 3 {
+            let rhs: &mut [f64; 27] = (&mut scratch.rhs[..27])
+                .try_into()
+                .expect("27 coefficients");
+            solve_tensor_3(&frame, rows, params.regularization, &mut scratch.dense, rhs)
+        } else {
+            let (ata, rhs) = (&mut scratch.ata[..c * c], &mut scratch.rhs[..c]);
+            solve_general(size, &frame, rows, params.regularization, ata, rhs)
+        };
     let offsets = &scratch.rhs[..c];
     let edge = 2.0 * frame.half;
     for a in 0..size {
@@ -354,6 +362,54 @@ pub fn fit_local(
         }
     }
     frame
+}
+
+/// How far the solve's answer may be from the plane for [`on_tangent_plane`] to skip it, in
+/// the domain's edge lengths: far below rounding's reach in the mesh (the Newton projection
+/// stops at 1e-6 of the field's length scale).
+const PLANE_SKIP: f64 = 1e-9;
+
+/// Whether every row lies so near the planar prior that the regularised solve's offsets are
+/// certainly within [`PLANE_SKIP`] of zero, so [`fit_local`] may write the plane without
+/// solving. The solve minimises `Σ θ·(B·x − r)² + λ·|x|²`, and `x = 0` costs `S = Σ θ·r²`, so
+/// its answer has `λ·|x|² ≤ S`; and a value of the spline moves by at most `max |xᵢ| ≤ |x|`
+/// edge lengths (its basis values are non-negative and sum to 1). So `S ≤ PLANE_SKIP²·λ`
+/// bounds the difference everywhere in the domain. `λ` is taken at a lower bound of the
+/// normal matrix's trace, `Σ θ / 27` (a row adds `θ·|b_u|²·|b_v|²·|b_w|²`, and three
+/// non-negative values summing to 1 have squares summing to at least 1/3), which saves the
+/// basis evaluations. A sampled plane (a CAD face in double precision) passes, with residuals
+/// at rounding's level; a curved neighbourhood fails on its first row off the plane.
+fn on_tangent_plane(
+    size: usize,
+    frame: &LocalFrame,
+    rows: impl Iterator<Item = [FitRow; 3]>,
+    regularization: f64,
+) -> bool {
+    let (mut cost, mut weight) = (0.0, 0.0);
+    for row in rows.flatten() {
+        let (_, residual) = row.local(frame);
+        if residual.abs() > PLANE_SKIP {
+            return false;
+        }
+        cost += row.weight * residual * residual;
+        weight += row.weight;
+    }
+    cost <= PLANE_SKIP * PLANE_SKIP * tikhonov(regularization, weight / 27.0, size.pow(3))
+}
+
+/// Whether `coeffs` are exactly the tangent plane of `frame` that [`fit_local`] writes when
+/// its offsets are zero (a skipped or failed solve, or a plane's exact answer): inside its
+/// domain such a field's value is the signed distance along the frame's normal, which a blend
+/// may evaluate without the spline.
+pub fn is_tangent_plane(size: usize, frame: &LocalFrame, coeffs: &[f64]) -> bool {
+    let edge = 2.0 * frame.half;
+    coeffs.len() == size.pow(3)
+        && coeffs.chunks_exact(size).all(|along_normal| {
+            along_normal
+                .iter()
+                .enumerate()
+                .all(|(cc, &x)| x == (greville(size, cc) - 0.5 + 0.0) * edge)
+        })
 }
 
 /// One row of a local fit's least squares: the field's value at `at` should be `target`

@@ -114,7 +114,6 @@ impl GlobalField {
             let dist = dist2.sqrt();
             let (phi, dphi) = weight(dist / r);
             let (phi, dphi) = (phi * d.misfit[i], dphi * d.misfit[i]);
-            let [u, v, w] = fr.to_local(x);
             let vote = d.votes[i];
             let votes = !vote.is_nan();
             if votes {
@@ -124,11 +123,23 @@ impl GlobalField {
             acc.sw += phi;
             acc.centre += fr.center * phi;
             acc.normal += normal * phi;
-            // How far x lies off the field's tangent plane, in support radii.
-            let lean = normal.dot(rel) / r;
+            // How far x lies off the field's tangent plane, in world units and support radii.
+            let off = normal.dot(rel);
+            let lean = off / r;
             acc.lean += phi * lean;
+            // A planar field's spline is the signed distance along its normal, with the normal
+            // as its gradient: up to rounding the same value, as a support lies inside its
+            // domain (radius ≤ the half edge), where the basis does not clamp.
+            let planar = d.planar[i];
+            let coeffs = &d.coeffs[i * c..(i + 1) * c];
             if !GRAD {
-                acc.swf += phi * eval3_value(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
+                acc.swf += phi
+                    * if planar {
+                        off
+                    } else {
+                        let [u, v, w] = fr.to_local(x);
+                        eval3_value(size, coeffs, u, v, w)
+                    };
                 return;
             }
             let gphi = if dist > 0.0 {
@@ -136,9 +147,17 @@ impl GlobalField {
             } else {
                 DVec3::ZERO
             };
-            let (s, gq) = eval3(size, &d.coeffs[i * c..(i + 1) * c], u, v, w);
-            let inv_edge = 0.5 / fr.half;
-            let gs = (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + normal * gq[2]) * inv_edge;
+            let (s, gs) = if planar {
+                (off, normal)
+            } else {
+                let [u, v, w] = fr.to_local(x);
+                let (s, gq) = eval3(size, coeffs, u, v, w);
+                let inv_edge = 0.5 / fr.half;
+                (
+                    s,
+                    (fr.axes[0] * gq[0] + fr.axes[1] * gq[1] + normal * gq[2]) * inv_edge,
+                )
+            };
             acc.swf += phi * s;
             acc.gsw += gphi;
             acc.gswf += gphi * s + gs * phi;
@@ -473,6 +492,74 @@ mod tests {
             (g - fd).length() < tolerance * (1.0 + g.length()),
             "at {x}: analytic {g} vs finite difference {fd}"
         );
+    }
+
+    #[test]
+    fn planar_fields_blend_as_their_splines_do() {
+        use crate::field::NoProgress;
+        use crate::knn::{KnnGraph, PointIndex};
+        use crate::local_fit::FitParams;
+        use std::sync::Arc;
+        // A flat sheet (z = 0, normals exactly +z) with a smooth bump in its middle: the flat
+        // part's fields are planes, the bump's are not.
+        let bump = |x: f64, y: f64| {
+            let s = 1.0 - (x * x + y * y) / 0.09;
+            if s > 0.0 {
+                (
+                    0.05 * s * s,
+                    DVec3::new(0.4 * s * x / 0.09, 0.4 * s * y / 0.09, 1.0),
+                )
+            } else {
+                (0.0, DVec3::Z)
+            }
+        };
+        let (mut points, mut normals) = (Vec::new(), Vec::new());
+        for a in -20..=20 {
+            for b in -20..=20 {
+                let (x, y) = (a as f64 * 0.03, b as f64 * 0.03);
+                let (z, n) = bump(x, y);
+                points.push(DVec3::new(x, y, z));
+                normals.push(n.normalize());
+            }
+        }
+        let knn = KnnGraph::build(&points, &PointIndex::new(&points), 20);
+        for params in [
+            FitParams::default(),
+            FitParams {
+                centre_spacing: 0.35,
+                flat_spacing: 0.5,
+                ..FitParams::default()
+            },
+        ] {
+            let field = GlobalField::build(&points, &normals, &knn, &params, &NoProgress).unwrap();
+            let planar = field.inner.planar.iter().filter(|p| **p).count();
+            assert!(
+                planar > field.inner.planar.len() / 3 && planar < field.inner.planar.len(),
+                "{planar} of {} fields planar",
+                field.inner.planar.len()
+            );
+            let mut splines = field.clone();
+            Arc::make_mut(&mut splines.inner).planar.fill(false);
+            // Over the sheet, the bump and the rim, on and off the surface (out to where the
+            // supports end and the splines' domains clamp).
+            for a in -26..=26 {
+                for b in -26..=26 {
+                    for z in [-0.04, -0.003, 0.0, 0.01, 0.06] {
+                        let x = DVec3::new(a as f64 * 0.0237, b as f64 * 0.0237, z);
+                        let (f, g) = field.value_and_gradient(x);
+                        let (fs, gs) = splines.value_and_gradient(x);
+                        assert!(
+                            (f - fs).abs() <= 1e-14 + 1e-12 * fs.abs(),
+                            "{x}: {f} vs {fs}"
+                        );
+                        assert!((g - gs).length() <= 1e-11, "{x}: {g} vs {gs}");
+                        assert!(
+                            (field.value(x) - splines.value(x)).abs() <= 1e-14 + 1e-12 * fs.abs()
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

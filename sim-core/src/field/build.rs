@@ -10,7 +10,9 @@ use super::{FieldData, FieldError, GlobalField, NO_LOCAL, Progress, Witnesses};
 use crate::bspline::{MAX_SIZE, RefitOperator};
 use crate::gaps::GapSite;
 use crate::knn::{KnnGraph, PointIndex};
-use crate::local_fit::{FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local, fit_misfit};
+use crate::local_fit::{
+    FitParams, FitScratch, LocalFrame, Neighbourhood, fit_local, fit_misfit, is_tangent_plane,
+};
 use crate::outliers::flag_outliers;
 use crate::spatial::SupportGrid;
 
@@ -175,6 +177,11 @@ impl GlobalField {
             Vec::new()
         };
         // Everything below is in slot order.
+        let planar: Vec<bool> = coeffs
+            .chunks_exact(c)
+            .zip(&frames)
+            .map(|(coeffs, frame)| is_tangent_plane(params.size, frame, coeffs))
+            .collect();
         let support: Vec<f64> = frames
             .iter()
             .enumerate()
@@ -234,6 +241,7 @@ impl GlobalField {
                 grid,
                 votes,
                 misfit,
+                planar,
                 witnesses,
                 refit: Arc::new(refit),
                 scale,

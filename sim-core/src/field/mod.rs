@@ -128,6 +128,10 @@ struct FieldData {
     /// ([`FitParams::misfit_width`]); 1 for every slot without that option, and for relocated
     /// fields (a field with the option is static).
     misfit: Vec<f64>,
+    /// Per slot, whether the field is exactly its frame's tangent plane
+    /// ([`crate::local_fit::is_tangent_plane`]: a flat face's fit), which the blend evaluates
+    /// as a signed distance instead of through the spline (the same value up to rounding).
+    planar: Vec<bool>,
     /// Every inlier point as a trust witness, where the local fields are thinned
     /// ([`FitParams::centre_spacing`]); `None`: the fields' own points are the witnesses.
     witnesses: Option<Witnesses>,
@@ -327,6 +331,7 @@ impl GlobalField {
         data.coeffs.resize((s + 1) * c, 0.0);
         let refit = Arc::clone(&data.refit);
         refit.apply(samples, &mut data.coeffs[s * c..(s + 1) * c]);
+        data.planar.push(false);
         data.orphans.push(old as u32);
         data.slot[i] = s as u32;
         data.grid.insert(frame.center, support, s as u32);
@@ -343,6 +348,7 @@ impl GlobalField {
         let c = data.params.size.pow(3);
         let refit = Arc::clone(&data.refit);
         refit.apply(samples, &mut data.coeffs[s * c..(s + 1) * c]);
+        data.planar[s] = false;
     }
 }
 
@@ -382,6 +388,7 @@ impl Clone for FieldData {
             grid: self.grid.clone(),
             votes: self.votes.clone(),
             misfit: self.misfit.clone(),
+            planar: self.planar.clone(),
             witnesses: self.witnesses.clone(),
             refit: Arc::clone(&self.refit),
             scale: self.scale,

@@ -10,6 +10,7 @@ mod hard_cases;
 mod io_formats;
 mod meshing;
 mod misfit;
+mod planar_fits;
 mod real_scan;
 mod trusted;
 mod untrusted_input;
