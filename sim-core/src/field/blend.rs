@@ -540,8 +540,8 @@ mod tests {
             );
             let mut splines = field.clone();
             Arc::make_mut(&mut splines.inner).planar.fill(false);
-            // Over the sheet, the bump and the rim, on and off the surface (out to where the
-            // supports end and the splines' domains clamp).
+            // Over the sheet, the bump and the rim, on and off the surface, and past the rim
+            // (where the supports end).
             for a in -26..=26 {
                 for b in -26..=26 {
                     for z in [-0.04, -0.003, 0.0, 0.01, 0.06] {
