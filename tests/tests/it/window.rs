@@ -23,8 +23,13 @@ impl Xvfb {
             "the window tests need Xvfb and xdotool: run .ci/setup (Debian packages xvfb, xdotool)"
         );
         // Xvfb picks a free display itself and writes its number on stdout (-displayfd).
+        // `-noreset`: by default the server resets when its last client disconnects, and a
+        // client connecting meanwhile is refused; the tests poll with xdotool (a client that
+        // connects and leaves) while the workstation opens its window, and CI once saw the
+        // window fail with "Failed to open connection to X server" that way.
         let mut child = Command::new("Xvfb")
             .args([
+                "-noreset",
                 "-displayfd",
                 "1",
                 "-screen",
