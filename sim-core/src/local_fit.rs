@@ -355,9 +355,8 @@ pub fn fit_local(
         for b in 0..size {
             for cc in 0..size {
                 let flat = (a * size + b) * size + cc;
-                let plane = greville(size, cc) - 0.5;
                 let delta = if solved { offsets[flat] } else { 0.0 };
-                coeffs[flat] = (plane + delta) * edge;
+                coeffs[flat] = coefficient(size, cc, delta, edge);
             }
         }
     }
@@ -408,8 +407,16 @@ pub fn is_tangent_plane(size: usize, frame: &LocalFrame, coeffs: &[f64]) -> bool
             along_normal
                 .iter()
                 .enumerate()
-                .all(|(cc, &x)| x == (greville(size, cc) - 0.5 + 0.0) * edge)
+                .all(|(cc, &x)| x == coefficient(size, cc, 0.0, edge))
         })
+}
+
+/// Coefficient `cc` along the normal of a field `offset` (normalised units) off its tangent
+/// plane, in world units for a domain `edge` long: the one formula [`fit_local`] writes and
+/// [`is_tangent_plane`] compares against bit for bit.
+#[inline]
+fn coefficient(size: usize, cc: usize, offset: f64, edge: f64) -> f64 {
+    (greville(size, cc) - 0.5 + offset) * edge
 }
 
 /// One row of a local fit's least squares: the field's value at `at` should be `target`
