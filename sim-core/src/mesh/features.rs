@@ -256,7 +256,8 @@ pub(crate) fn wedge_point(
         .iter()
         .map(|q| (q.centre - on_line).reject_from_normalized(across).length())
         .fold(f64::INFINITY, f64::min);
-    if nearest.is_nan() || nearest > CREASE_NEAR * mean_radius {
+    // `f64::min` skips NaN: no point, or none at a finite distance, leaves infinity.
+    if nearest > CREASE_NEAR * mean_radius {
         return None;
     }
     // Convex when each face's points lie behind the other's plane (on it counts neither way).
