@@ -34,6 +34,7 @@ pub mod csg;
 pub mod dynamics;
 pub mod field;
 pub mod follow;
+pub mod gap_samples;
 pub mod gaps;
 pub mod grid;
 pub mod haptic;

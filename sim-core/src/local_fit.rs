@@ -118,6 +118,14 @@ pub struct FitParams {
     /// their largest 2–4 %. 0: every field weighs the same.
     #[serde(default)]
     pub misfit_width: f64,
+    /// Gap samples, for a thinned (static) field only ([`FitParams::centre_spacing`] > 0): in
+    /// each gap among the points at least this fraction (in `(0, 1)`) of the nearest point's
+    /// neighbourhood radius wide, one sample on the sphere APSS would fit there joins the points
+    /// (see [`crate::gap_samples`]), so the fits around the gap follow the surface across it
+    /// instead of carrying their own side's curvature over it, and the gap is trusted. The
+    /// field's point indices past the given points' are the samples. 0: none.
+    #[serde(default)]
+    pub gap_samples: f64,
 }
 
 fn default_normal_weight() -> f64 {
@@ -162,6 +170,7 @@ impl Default for FitParams {
             k_even: 0,
             even_lean: 0.0,
             misfit_width: 0.0,
+            gap_samples: 0.0,
         }
     }
 }

@@ -1,5 +1,6 @@
-//! Building a field: the points' local fits (thinned to centres for a static surface), the gap
-//! fields between them, the support index and the trust witnesses.
+//! Building a field: the gap samples that join the points (a static surface's), the points'
+//! local fits (thinned to centres for a static surface), the gap fields between them, the
+//! support index and the trust witnesses.
 
 use std::sync::Arc;
 
@@ -21,6 +22,9 @@ impl GlobalField {
     ///
     /// `normals` are unit and consistently oriented outward; `knn` lists each point's neighbours
     /// (its `k` is the neighbourhood size; `params.k` is not consulted here).
+    /// With [`FitParams::gap_samples`] (a thinned field), samples placed in the gaps join the
+    /// points ([`crate::gap_samples`]): the field's point indices from `points.len()` on are
+    /// theirs, with a k-NN graph of the same `k` over both.
     pub fn build(
         points: &[DVec3],
         normals: &[DVec3],
@@ -28,7 +32,7 @@ impl GlobalField {
         params: &FitParams,
         progress: &dyn Progress,
     ) -> Result<Self, FieldError> {
-        Self::build_with_index(points, normals, knn, None, params, progress)
+        Self::build_with_index(points, normals, knn, None, None, params, progress)
     }
 
     /// [`GlobalField::build`] with the caller's k-d tree over `points` (the one `knn` was built
@@ -47,14 +51,17 @@ impl GlobalField {
                 index: index.len(),
             });
         }
-        Self::build_with_index(points, normals, knn, Some(index), params, progress)
+        Self::build_with_index(points, normals, knn, Some(index), None, params, progress)
     }
 
+    /// `own_radii`: where gap samples joined the points ([`GlobalField::build_with_samples`]),
+    /// the given points' own trust radii; only those points vouch for the zero set.
     fn build_with_index(
         points: &[DVec3],
         normals: &[DVec3],
         knn: &KnnGraph,
         index: Option<&PointIndex>,
+        own_radii: Option<&[f64]>,
         params: &FitParams,
         progress: &dyn Progress,
     ) -> Result<Self, FieldError> {
@@ -64,6 +71,12 @@ impl GlobalField {
         let mut sorted: Vec<f64> = radii.iter().copied().filter(|r| *r > 0.0).collect();
         sorted.sort_by(f64::total_cmp);
         let typical = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+        let witness_radii: Vec<f64> = match own_radii {
+            Some(own) => (0..n)
+                .map(|i| own.get(i).copied().unwrap_or(radii[i]))
+                .collect(),
+            None => radii.clone(),
+        };
         // Outliers and the trust radii (`radii`) come from the full neighbourhoods; the fits,
         // their domains and supports and the thinning from the ones used (`k_even`).
         let outlier = flag_outliers(
@@ -74,6 +87,22 @@ impl GlobalField {
             params.normal_agreement,
             typical,
         );
+        // The points that vouch for the zero set: the inliers, but not gap samples.
+        let silent: Vec<bool> = match own_radii {
+            Some(own) => outlier
+                .iter()
+                .enumerate()
+                .map(|(i, &o)| o || i >= own.len())
+                .collect(),
+            None => outlier.clone(),
+        };
+        if params.gap_samples > 0.0 && params.centre_spacing > 0.0 {
+            let samples =
+                crate::gap_samples::place(points, normals, knn, &outlier, params.gap_samples);
+            if !samples.is_empty() {
+                return Self::build_with_samples(points, normals, knn, &samples, params, progress);
+            }
+        }
         let even;
         let knn = if params.centre_spacing > 0.0 && (2..knn.k()).contains(&params.k_even) {
             let mut shrunk = knn.clone();
@@ -214,7 +243,17 @@ impl GlobalField {
             || {
                 rayon::join(
                     || super::blend::solid_votes(&frames, &support, &grid, params.normal_agreement),
-                    || witnesses(points, normals, &radii, &outlier, typical, scale, params),
+                    || {
+                        witnesses(
+                            points,
+                            normals,
+                            &witness_radii,
+                            &silent,
+                            typical,
+                            scale,
+                            params,
+                        )
+                    },
                 )
             },
             || PointIndex::new(&inlier_points),
@@ -247,8 +286,58 @@ impl GlobalField {
                 scale,
                 outliers: outlier.iter().filter(|o| **o).count(),
                 small_neighbourhoods,
+                gap_samples: 0,
             }),
         })
+    }
+}
+
+impl GlobalField {
+    /// The field of `points` and the gap `samples` among them ([`FitParams::gap_samples`]): the
+    /// samples join the points (after them, so the points keep their indices), with a k-NN graph
+    /// of the same `k` over both, and the field is built as for any points, except for trust:
+    /// only the points vouch for the zero set, with the radii of their own graph `own_knn`, so
+    /// the samples shape the fits but the field trusts where the points alone would (as
+    /// witnesses, with radii the samples shrink, they opened holes in closed shapes). It
+    /// reports the samples' count and the parameters as asked.
+    fn build_with_samples(
+        points: &[DVec3],
+        normals: &[DVec3],
+        own_knn: &KnnGraph,
+        samples: &[crate::gap_samples::GapSample],
+        params: &FitParams,
+        progress: &dyn Progress,
+    ) -> Result<Self, FieldError> {
+        let joined: Vec<DVec3> = points
+            .iter()
+            .copied()
+            .chain(samples.iter().map(|s| s.position))
+            .collect();
+        let joined_normals: Vec<DVec3> = normals
+            .iter()
+            .copied()
+            .chain(samples.iter().map(|s| s.normal))
+            .collect();
+        let index = PointIndex::new(&joined);
+        let knn = KnnGraph::build(&joined, &index, own_knn.k());
+        let own_radii: Vec<f64> = (0..points.len()).map(|i| own_knn.radius(i)).collect();
+        let without = FitParams {
+            gap_samples: 0.0,
+            ..*params
+        };
+        let mut field = Self::build_with_index(
+            &joined,
+            &joined_normals,
+            &knn,
+            Some(&index),
+            Some(&own_radii),
+            &without,
+            progress,
+        )?;
+        let data = Arc::get_mut(&mut field.inner).expect("a field just built is not shared");
+        data.params = *params;
+        data.gap_samples = samples.len();
+        Ok(field)
     }
 }
 
@@ -495,8 +584,9 @@ fn validate(
         (0.0..1.0).contains(&p.gap_fields),
         p.even_lean >= 0.0 && p.even_lean.is_finite(),
         p.misfit_width >= 0.0 && p.misfit_width.is_finite(),
+        (0.0..1.0).contains(&p.gap_samples),
     ];
-    const WHAT: [&str; 16] = [
+    const WHAT: [&str; 17] = [
         "size must be in 3..=6",
         "offset must be in (0, 1)",
         "weight_width must be positive",
@@ -513,6 +603,7 @@ fn validate(
         "gap_fields must be in [0, 1)",
         "even_lean must be finite and ≥ 0",
         "misfit_width must be finite and ≥ 0",
+        "gap_samples must be in [0, 1)",
     ];
     match checks.iter().position(|ok| !ok) {
         Some(bad) => Err(FieldError::Param(WHAT[bad])),

@@ -139,6 +139,8 @@ struct FieldData {
     scale: f64,
     outliers: usize,
     small_neighbourhoods: usize,
+    /// Gap samples the fits took as rows ([`FitParams::gap_samples`]).
+    gap_samples: usize,
 }
 
 impl GlobalField {
@@ -181,6 +183,12 @@ impl GlobalField {
     /// Always `false`: a field has at least one point.
     pub fn is_empty(&self) -> bool {
         self.inner.frames.is_empty()
+    }
+
+    /// Gap samples the fits took as extra rows ([`FitParams::gap_samples`]; no field of their
+    /// own).
+    pub fn gap_sample_count(&self) -> usize {
+        self.inner.gap_samples
     }
 
     /// Points rejected as outliers (no local field, no support).
@@ -394,6 +402,7 @@ impl Clone for FieldData {
             scale: self.scale,
             outliers: self.outliers,
             small_neighbourhoods: self.small_neighbourhoods,
+            gap_samples: self.gap_samples,
         }
     }
 }

@@ -37,6 +37,7 @@ fn generated_sphere_reports_the_checked_json_fields() {
         "surface",
         "local_fields",
         "gap_fields",
+        "gap_samples",
     ] {
         assert!(json.get(key).is_some_and(|v| !v.is_null()), "missing {key}");
     }
@@ -45,6 +46,7 @@ fn generated_sphere_reports_the_checked_json_fields() {
         report.gap_fields < report.local_fields,
         "gap fields are among the fields"
     );
+    assert_eq!(report.gap_samples, 0, "off by default");
     assert_eq!(report.error_samples, 10_000);
     assert_eq!(
         report.reference_size,
@@ -277,4 +279,34 @@ fn file_with_unoriented_normals_fits_whole() {
     assert!(report.projected_rms_error.unwrap() < 2e-3, "{report:?}");
     assert_eq!(report.mesh_profile.as_ref().unwrap().components, 1);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn gap_samples_are_reported_off_on_request_and_bounded() {
+    let run_with = |value: &str| {
+        run(&args(&[
+            "gen:sphere:1:2000",
+            "--quiet",
+            "--error-samples",
+            "0",
+            "--surface-samples",
+            "0",
+            "--gap-samples",
+            value,
+        ]))
+    };
+    let on = run_with("0.3").unwrap();
+    let off = run_with("0").unwrap();
+    // A random sampling leaves gaps.
+    assert!(on.gap_samples > 0);
+    assert_eq!(off.gap_samples, 0);
+    // The samples get fields where the thinning gives them one.
+    assert!(on.local_fields > off.local_fields);
+    assert_eq!(
+        (on.points, off.points),
+        (2000, 2000),
+        "the points stay the input's"
+    );
+    let err = format!("{:#}", run_with("1.5").unwrap_err());
+    assert!(err.contains("gap_samples must be in [0, 1)"), "{err}");
 }
