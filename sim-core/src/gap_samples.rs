@@ -285,26 +285,30 @@ impl Sphere {
         })
     }
 
-    /// The sphere's radius (infinite for a plane, 0 for an imaginary sphere).
-    fn radius(&self) -> f64 {
+    /// The sphere's centre and squared radius (relative to the query), or `None` for a plane.
+    fn centre(&self) -> Option<(DVec3, f64)> {
         let (u, a, c) = (self.u, self.a, self.constant);
         if a.abs() * self.mean_d2.sqrt() < 1e-9 * u.length() {
-            return f64::INFINITY;
+            return None;
         }
         let centre = -u / (2.0 * a);
-        (centre.length_squared() - c / a).max(0.0).sqrt()
+        Some((centre, centre.length_squared() - c / a))
+    }
+
+    /// The sphere's radius (infinite for a plane, 0 for an imaginary sphere).
+    fn radius(&self) -> f64 {
+        self.centre()
+            .map_or(f64::INFINITY, |(_, rho2)| rho2.max(0.0).sqrt())
     }
 
     /// From the query (the origin of `y`) to the nearest point of the sphere (or plane);
     /// `None` where the sphere is imaginary.
     fn step(&self) -> Option<DVec3> {
-        let (u, a, c) = (self.u, self.a, self.constant);
-        if a.abs() * self.mean_d2.sqrt() < 1e-9 * u.length() {
+        let Some((centre, rho2)) = self.centre() else {
+            let (u, c) = (self.u, self.constant);
             let uu = u.length_squared();
             return (uu > 0.0).then(|| -u * (c / uu));
-        }
-        let centre = -u / (2.0 * a);
-        let rho2 = centre.length_squared() - c / a;
+        };
         if !positive(rho2) {
             return None;
         }

@@ -122,8 +122,9 @@ pub struct FitParams {
     /// each gap among the points at least this fraction (in `(0, 1)`) of the nearest point's
     /// neighbourhood radius wide, one sample on the sphere APSS would fit there joins the points
     /// (see [`crate::gap_samples`]), so the fits around the gap follow the surface across it
-    /// instead of carrying their own side's curvature over it, and the gap is trusted. The
-    /// field's point indices past the given points' are the samples. 0: none.
+    /// instead of carrying their own side's curvature over it; the points alone still decide
+    /// where the zero set is trusted. The field's point indices past the given points' are the
+    /// samples. 0: none.
     #[serde(default)]
     pub gap_samples: f64,
 }

@@ -229,7 +229,7 @@ pub struct FitReport {
     /// Points fitting to fewer than k neighbours, their nearest surrounding them evenly
     /// (`params.k_even`).
     pub small_neighbourhoods: usize,
-    /// Gap samples the fits took as extra neighbours (`params.gap_samples`).
+    /// Gap samples that joined the points (`params.gap_samples`).
     pub gap_samples: usize,
     /// The reference measured against, if any.
     pub reference: Option<String>,

@@ -71,12 +71,6 @@ impl GlobalField {
         let mut sorted: Vec<f64> = radii.iter().copied().filter(|r| *r > 0.0).collect();
         sorted.sort_by(f64::total_cmp);
         let typical = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
-        let witness_radii: Vec<f64> = match own_radii {
-            Some(own) => (0..n)
-                .map(|i| own.get(i).copied().unwrap_or(radii[i]))
-                .collect(),
-            None => radii.clone(),
-        };
         // Outliers and the trust radii (`radii`) come from the full neighbourhoods; the fits,
         // their domains and supports and the thinning from the ones used (`k_even`).
         let outlier = flag_outliers(
@@ -87,15 +81,6 @@ impl GlobalField {
             params.normal_agreement,
             typical,
         );
-        // The points that vouch for the zero set: the inliers, but not gap samples.
-        let silent: Vec<bool> = match own_radii {
-            Some(own) => outlier
-                .iter()
-                .enumerate()
-                .map(|(i, &o)| o || i >= own.len())
-                .collect(),
-            None => outlier.clone(),
-        };
         if params.gap_samples > 0.0 && params.centre_spacing > 0.0 {
             let samples =
                 crate::gap_samples::place(points, normals, knn, &outlier, params.gap_samples);
@@ -244,15 +229,9 @@ impl GlobalField {
                 rayon::join(
                     || super::blend::solid_votes(&frames, &support, &grid, params.normal_agreement),
                     || {
-                        witnesses(
-                            points,
-                            normals,
-                            &witness_radii,
-                            &silent,
-                            typical,
-                            scale,
-                            params,
-                        )
+                        // Gap samples (past the given points' own radii) do not vouch.
+                        let radii = own_radii.unwrap_or(&radii);
+                        witnesses(points, normals, radii, &outlier, typical, scale, params)
                     },
                 )
             },
@@ -341,9 +320,10 @@ impl GlobalField {
     }
 }
 
-/// Every inlier point as a trust witness with its support radius (outliers get 0), for a
-/// thinned field ([`FitParams::centre_spacing`] > 0); `None` for a field at every point, whose
-/// own points are the witnesses.
+/// Every inlier point with a radius in `radii` as a trust witness with its support radius
+/// (outliers, and the gap samples past `radii`'s end, get 0), for a thinned field
+/// ([`FitParams::centre_spacing`] > 0); `None` for a field at every point, whose own points are
+/// the witnesses.
 fn witnesses(
     points: &[DVec3],
     normals: &[DVec3],
@@ -355,13 +335,11 @@ fn witnesses(
 ) -> Option<Witnesses> {
     (params.centre_spacing > 0.0).then(|| {
         let support: Vec<f64> = (0..points.len())
-            .map(|i| {
-                let r = if radii[i] > 0.0 { radii[i] } else { typical };
-                if outlier[i] {
-                    0.0
-                } else {
-                    params.support * r * (1.0 + params.offset)
+            .map(|i| match radii.get(i) {
+                Some(&r) if !outlier[i] => {
+                    params.support * if r > 0.0 { r } else { typical } * (1.0 + params.offset)
                 }
+                _ => 0.0,
             })
             .collect();
         Witnesses {

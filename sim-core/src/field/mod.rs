@@ -139,7 +139,7 @@ struct FieldData {
     scale: f64,
     outliers: usize,
     small_neighbourhoods: usize,
-    /// Gap samples the fits took as rows ([`FitParams::gap_samples`]).
+    /// Gap samples that joined the points ([`FitParams::gap_samples`]).
     gap_samples: usize,
 }
 
@@ -185,8 +185,8 @@ impl GlobalField {
         self.inner.frames.is_empty()
     }
 
-    /// Gap samples the fits took as extra rows ([`FitParams::gap_samples`]; no field of their
-    /// own).
+    /// Gap samples that joined the points ([`FitParams::gap_samples`]): they shape the fits and
+    /// have fields where the thinning gives them one, but do not vouch for the zero set.
     pub fn gap_sample_count(&self) -> usize {
         self.inner.gap_samples
     }
