@@ -429,9 +429,9 @@ const FIT_MISFIT_WIDTH: f64 = 0.035;
 /// comparison shapes (resolution 200, the other defaults), 0.3 puts 2 of the 42 error figures
 /// behind APSS's instead of 6 (the rocker arm's RMS 1.18 → 0.995 and max 1.24 → 0.97, homer's
 /// RMS 1.08 → 0.95, the bunny scan's coverage 1.13 → 0.98; homer's max 0.88 → 1.12), but
-/// leaves a 2-triangle piece on the cheburashka and takes up to twice as long to construct
-/// (the airplane 1.2–1.45× APSS's wall time), so it is not on by default (docs/BENCHMARKS.md,
-/// "Gap samples").
+/// leaves a 2-triangle piece on the cheburashka (the blend's, at a sharp concave corner) and
+/// takes up to twice as long to construct (the airplane 1.34× APSS's wall time in the same
+/// run, 0.77× without), so it is not on by default (docs/BENCHMARKS.md, "Gap samples").
 const FIT_GAP_SAMPLES: f64 = 0.0;
 
 /// `fit`'s default [`FitParams::regularization`], 30× the library's. On the MeshLab comparison
