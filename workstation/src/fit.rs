@@ -25,7 +25,7 @@ use sim_core::accuracy::{
     zero_set_error,
 };
 use sim_core::io::{self, Format, Loaded};
-use sim_core::mesh::{MeshOptions, TriMesh, extract_zero_set_with};
+use sim_core::mesh::{CutPiece, MeshOptions, TriMesh, extract_zero_set_with};
 use sim_core::reconstruct::{NormalPolicy, Stage, StageObserver, reconstruct};
 use sim_core::sampling::Noise;
 use sim_core::{FitParams, PointSet, Progress};
@@ -158,6 +158,11 @@ pub struct FitArgs {
     /// instead of projecting them onto the zero set: to measure what the projection gains.
     #[arg(long)]
     pub unprojected_vertices: bool,
+    /// Keep mesh pieces that no input point supports (none holds a point's nearest vertex).
+    /// By default they are cut, and the report lists each with its size and its distance from
+    /// the nearest point: the trusted zero set should leave none, so one cut is worth a look.
+    #[arg(long)]
+    pub keep_unsupported_pieces: bool,
     /// What to do with given normals: keep, reorient (fix flipped ones) or estimate (ignore).
     #[arg(long, value_enum, default_value_t = NormalsArg::Keep)]
     pub normals: NormalsArg,
@@ -291,6 +296,9 @@ pub struct MeshProfile {
     pub inverted: usize,
     /// Vertices moved onto the wedge of a crease's two faces.
     pub sharpened: usize,
+    /// Pieces cut because no input point supports them (`--keep-unsupported-pieces` keeps
+    /// them); `components` and the written mesh are what is left.
+    pub cut_pieces: Vec<CutPiece>,
 }
 
 /// The two-sided error, relative to the reference size (see
@@ -425,13 +433,31 @@ const FIT_EVEN_LEAN: f64 = 0.2;
 /// rocker arm's max 11 % but raises the bunny's 18 %.
 const FIT_MISFIT_WIDTH: f64 = 0.035;
 
+/// Cut the pieces of `mesh` that no point of `points` supports
+/// ([`TriMesh::cut_unsupported_pieces`]), each logged as a warning, and return them. The
+/// trusted zero set should leave none, so every meshing command runs this net and says what
+/// it caught.
+pub fn cut_unsupported_pieces(mesh: &mut TriMesh, points: &[DVec3]) -> Vec<CutPiece> {
+    let cut = mesh.cut_unsupported_pieces(points);
+    for piece in &cut {
+        let [x, y, z] = piece.centre;
+        tracing::warn!(
+            "cut a mesh piece no point supports: {} triangles at ({x:.4}, {y:.4}, {z:.4}), \
+             {:.3e} from the nearest point",
+            piece.triangles,
+            piece.distance
+        );
+    }
+    cut
+}
+
 /// `fit`'s default [`FitParams::gap_samples`]: none, as in the library. On the MeshLab
-/// comparison shapes (resolution 200, the other defaults), 0.3 puts 2 of the 42 error figures
-/// behind APSS's instead of 6 (the rocker arm's RMS 1.18 → 0.995 and max 1.24 → 0.97, homer's
-/// RMS 1.08 → 0.95, the bunny scan's coverage 1.13 → 0.98; homer's max 0.88 → 1.12), but
-/// leaves a 2-triangle piece on the cheburashka (the blend's, at a sharp concave corner) and
-/// takes up to twice as long to construct (the airplane 1.34× APSS's wall time in the same
-/// run, 0.77× without), so it is not on by default (docs/BENCHMARKS.md, "Gap samples").
+/// comparison shapes (resolution 200, the other defaults), 0.3 puts 1 of the 42 error figures
+/// behind APSS's instead of 6 (the rocker arm's RMS 1.18 → 0.996 and max 1.24 → 0.97, homer's
+/// RMS 1.08 → 0.95 and coverage 1.10 → 0.96, the bunny scan's coverage 1.13 → 0.98; the one
+/// left is the fandisk's max, 1.17 → 1.10), with one piece on every shape, but takes up to
+/// twice as long to construct (the airplane 1.3× APSS's wall time in the same run, 0.8×
+/// without), so it is not on by default (docs/BENCHMARKS.md, "Gap samples").
 const FIT_GAP_SAMPLES: f64 = 0.0;
 
 /// `fit`'s default [`FitParams::regularization`], 30× the library's. On the MeshLab comparison
@@ -596,7 +622,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             creases: args.creases,
             unprojected: args.unprojected_vertices,
         };
-        let (mesh, stats) = extract_zero_set_with(&rec.field, box_, padded as usize, &options);
+        let (mut mesh, stats) = extract_zero_set_with(&rec.field, box_, padded as usize, &options);
+        let cut_pieces = if args.keep_unsupported_pieces {
+            Vec::new()
+        } else {
+            cut_unsupported_pieces(&mut mesh, &points.positions)
+        };
         mesh_s = Some(t2.elapsed().as_secs_f64());
         mesh_evaluations = Some([stats.evaluations, stats.box_nodes]);
         // The census (both passes over every edge) runs beside the file's writing.
@@ -619,6 +650,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<FitReport> {
             newton_steps: stats.newton_steps,
             inverted: stats.inverted,
             sharpened: stats.sharpened,
+            cut_pieces,
         });
         mesh_triangles = Some(mesh.triangles.len());
         if let Some((_, r)) = reference.as_ref().filter(|_| want_surface) {
@@ -742,8 +774,16 @@ pub fn print(report: &FitReport, json: bool) -> anyhow::Result<()> {
     if let Some(p) = &r.mesh_profile {
         let t = &p.timings;
         println!(
-            "             {} connected component(s){}, {} open edge(s){}",
+            "             {} connected component(s){}{}, {} open edge(s){}",
             p.components,
+            if p.cut_pieces.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " after {} piece(s) no point supports were cut (logged above)",
+                    p.cut_pieces.len()
+                )
+            },
             if p.components > 1 {
                 format!(" (triangles {:?})", p.component_triangles)
             } else {

@@ -316,11 +316,12 @@ fn write_object(
         (lo, hi) = (lo.min(*p), hi.max(*p));
     }
     let pad = (hi - lo).max_element() * 0.05 + 1e-6;
-    let mesh = extract_zero_set(
+    let mut mesh = extract_zero_set(
         &o.field,
         (lo - DVec3::splat(pad), hi + DVec3::splat(pad)),
         resolution,
     );
+    crate::fit::cut_unsupported_pieces(&mut mesh, &o.positions);
     let f = std::fs::File::create(&mesh_path)
         .with_context(|| format!("creating {}", mesh_path.display()))?;
     io::write_mesh_ply(std::io::BufWriter::new(f), &mesh)?;

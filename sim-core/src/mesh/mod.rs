@@ -16,11 +16,14 @@
 //! [`extract_zero_set_dense`] evaluates every node and scans every cell: on a surface the points
 //! support everywhere it gives the same triangles, bit for bit (it may also place a lone vertex
 //! no triangle uses, in a cell no crossed neighbour leads the walk to).
+//! [`TriMesh::cut_unsupported_pieces`] (`pieces.rs`) is the safety net a caller may add: it cuts
+//! a piece that holds no point's nearest vertex, and reports it.
 //!
 //! Contract: vertices are finite; deterministic for a field and grid.
 
 mod features;
 mod follow;
+mod pieces;
 
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
@@ -37,6 +40,8 @@ use crate::sparse::{
     sample_block,
 };
 use crate::spatial::MulHasher;
+
+pub use pieces::CutPiece;
 
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside.
 #[derive(Debug, Clone, Default, PartialEq)]

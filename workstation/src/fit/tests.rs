@@ -169,6 +169,7 @@ fn mesh_error_measures_fits_mesh_like_fit_does_and_names_bad_input() {
     let profile = fit.mesh_profile.as_ref().unwrap();
     assert_eq!((r.pieces, r.open_edges), (1, 0), "{r:?}");
     assert_eq!((profile.components, profile.open_edges), (1, 0));
+    assert!(profile.cut_pieces.is_empty(), "{:?}", profile.cut_pieces);
     assert_eq!((r.reference_pieces, r.reference_open_edges), (None, None));
     let json = serde_json::to_value(&r).unwrap();
     assert!(json.get("by_spacing").is_none(), "{json}");

@@ -48,7 +48,8 @@ pub fn save(core: &SimCore, out: &Path, resolution: usize) -> anyhow::Result<Sav
             (lo, hi) = (lo.min(*p), hi.max(*p));
         }
         let pad = DVec3::splat((hi - lo).max_element() * 0.05 + 1e-6);
-        let m = extract_zero_set(&o.field, (lo - pad, hi + pad), resolution);
+        let mut m = extract_zero_set(&o.field, (lo - pad, hi + pad), resolution);
+        crate::fit::cut_unsupported_pieces(&mut m, &o.positions);
         let base = mesh.vertices.len() as u32;
         mesh.vertices.extend_from_slice(&m.vertices);
         mesh.normals.extend_from_slice(&m.normals);
