@@ -21,8 +21,10 @@
 //! [`NEIGHBOURS`]-th nearest) from every point; sites are then kept `clearance · r` apart, the
 //! sparsest first. Each site takes [`PROJECTIONS`] steps onto the sphere fitted there to the
 //! points within `hⱼ = REACH · rⱼ` of it. A sample is dropped when it moved more than
-//! [`MOVE`] of its site's radius (no sphere explains the gap), when the sphere is tighter than
-//! [`MIN_SPHERE_RADIUS`] site radii (a tip or a thin tube the points do not pin down), when a
+//! [`MOVE`] of its site's radius (no sphere explains the gap), when the sphere is convex and
+//! tighter than [`MIN_SPHERE_RADIUS`] site radii (a tip or a thin tube the points do not pin
+//! down; a tight concave one, a groove or the inner side of a crease, is bounded by the points
+//! around it and keeps its samples), when a
 //! neighbour faces more than acos([`FACING`]) away from the sphere's normal (the far side of a
 //! thin part), or when its neighbours' weighted mean leans off it along the tangent plane by
 //! more than [`LEAN`] of their RMS distance (a rim or a hole's edge: the points do not
@@ -60,11 +62,13 @@ pub const FACING: f64 = -0.3;
 /// distance from the sample.
 pub const LEAN: f64 = 0.5;
 
-/// The least radius of the fitted sphere, in the site's radii: a tighter sphere (the tip of a
-/// thin tail, a tube the points sample a few times round) is one the points do not pin down,
+/// The least radius of a convex fitted sphere, in the site's radii: a tighter one (the tip of
+/// a thin tail, a tube the points sample a few times round) is one the points do not pin down,
 /// and a sample on it can make the fits around it close off a blob of their own (the cow's tail
-/// tip did, 12 triangles apart from the mesh, with no such test or at 1). 1.25, 2 and 3 keep it
-/// whole too, with other figures behind APSS's (docs/BENCHMARKS.md, "Gap samples").
+/// tip did, 12 triangles apart from the mesh, with no such test or at 0.75). 1.0 and 1.25 keep
+/// it whole too, with other figures behind APSS's (docs/BENCHMARKS.md, "Gap samples"). A
+/// concave sphere is not tested: samples in grooves and inner creases are bounded by the points
+/// on either side (homer's mouth gets them, and its max goes 1.12 → 0.78× APSS's).
 pub const MIN_SPHERE_RADIUS: f64 = 1.5;
 
 /// A sample in a gap: a position on the sphere fitted there, and its outward unit normal.
@@ -198,7 +202,8 @@ fn project(
         x += step;
     }
     let (from, sphere, step) = last?;
-    if sphere.radius() < MIN_SPHERE_RADIUS * r {
+    // `a > 0`: the neighbours' normals spread apart, a convex sphere (see `MIN_SPHERE_RADIUS`).
+    if sphere.a > 0.0 && sphere.radius() < MIN_SPHERE_RADIUS * r {
         return None;
     }
     let mut g = (sphere.u + 2.0 * sphere.a * step).try_normalize()?;
@@ -401,11 +406,20 @@ mod tests {
     }
 
     #[test]
-    fn no_sample_on_a_sphere_tighter_than_its_gaps() {
+    fn no_sample_on_a_convex_sphere_tighter_than_its_gaps() {
         // 60 points round a sphere of radius 1: each point's 16th neighbour lies about 1.1 away,
         // so the sphere is tighter than 1.5 radii (a tail's tip, a tube a few points round).
         let (points, normals) = sphere(60, 1.0);
         assert!(samples(&points, &normals).is_empty());
+        // Seen from inside (a cavity: the normals point at the centre) the sphere is concave,
+        // which the points bound: it keeps its samples, on it and facing in.
+        let inward: Vec<DVec3> = normals.iter().map(|n| -*n).collect();
+        let found = samples(&points, &inward);
+        assert!(!found.is_empty());
+        for s in &found {
+            assert!((s.position.length() - 1.0).abs() < 1e-6, "{:?}", s.position);
+            assert!(s.normal.dot(-s.position.normalize()) > 1.0 - 1e-9);
+        }
         // The same sphere sampled finely enough for its gaps gets samples.
         let (points, normals) = sphere(2000, 1.0);
         assert!(!samples(&points, &normals).is_empty());
