@@ -41,7 +41,7 @@ impl TriMesh {
             .collect();
         let positions: Vec<DVec3> = used.iter().map(|&v| self.vertices[v as usize]).collect();
         let index = PointIndex::new(&positions);
-        let mut supported = points
+        let supported = points
             .par_iter()
             .fold(
                 || vec![false; sizes.len()],
@@ -55,11 +55,7 @@ impl TriMesh {
                 || vec![false; sizes.len()],
                 |a, b| a.iter().zip(b).map(|(&x, y)| x || y).collect(),
             );
-        // The largest piece is kept even if no point supports anything (points far from
-        // the mesh altogether say nothing about which piece is stray).
-        if !supported.iter().any(|&s| s) {
-            supported[0] = true;
-        }
+        // Every point marks one piece, so some piece is always kept.
         if supported.iter().all(|&s| s) {
             return Vec::new();
         }
