@@ -156,7 +156,8 @@ fn sites(
     };
     // Cells twice the widest clearance: a site's clearance ball then spans two cells along
     // each axis at most, its own and the one on the nearer side, so 8 lookups find every kept
-    // site it must clear (27 of a cell one clearance wide cost the airplane's 30k sites 2.5×).
+    // site it must clear (27 lookups in cells one clearance wide took the airplane's 30k
+    // candidates 15–24 ms, these 6–8 ms: the lookups, not the distance checks, are the cost).
     let cell = 2.0 * clearance * widest;
     // Keys wrap far out (cells then share one): a query sees a superset, and checks distances.
     let mut grid: HashMap<u64, Vec<u32>, BuildHasherDefault<MulHasher>> = HashMap::default();
